@@ -1,0 +1,166 @@
+"""Mission and world validation: every bad input names file and key and exits 2."""
+
+import math
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from uavsim.cli import main
+from uavsim.config import load_mission
+
+from .conftest import PAPER, ROOT
+
+WORLD_TEXT = (ROOT / "worlds" / "paper.toml").read_text()
+MISSION_TEXT = PAPER.read_text()
+COV0 = "cov0_si = [200.0, 200.0, 1e-10, 20.0, 20.0, 1e-10]"
+
+
+def test_paper_mission_values():
+    """Every number of 004 Sec. VI-A lands in the right field."""
+    m = load_mission(PAPER)
+    assert m.dynamics.dt == 1.0 and m.dynamics.friction == 0.2 and m.dynamics.mass == 1300.0
+    np.testing.assert_array_equal(np.diag(m.dynamics.q), [30, 30, 1e-10, 3, 3, 1e-10])
+    assert [t.mean0[:2].tolist() for t in m.targets] == [[281, 925], [238, 706], [901, 925], [885, 676]]
+    for t in m.targets:
+        np.testing.assert_array_equal(np.diag(t.cov0), [200, 200, 1e-10, 20, 20, 1e-10])
+        np.testing.assert_array_equal(m.world.goals[t.goal].centroid, [500, 150, 0])
+    assert m.sensor.sigma == pytest.approx(math.pi / 180) and m.sensor.p_detect == 0.95
+    assert m.sensor.clutter_rate == 1.0
+    assert (m.uav.step, m.uav.n_theta, m.uav.n_r, m.uav.altitude) == (5.0, 15, 4, 40.0)
+    np.testing.assert_array_equal(m.uav.start, [150, 200, 40])
+    g = m.guidance
+    assert (g.horizon, g.rho, g.force_max, g.speed_max) == (50, 0.01, 6000.0, 16.0)
+    assert m.world.n_obstacles == 5 and m.world.area_hi.tolist() == [1000, 1000, 1000]
+
+
+def test_validate_prints_summary(capsys):
+    assert main(["validate", str(PAPER)]) == 0
+    out = capsys.readouterr().out
+    for word in ("targets   4", "5 obstacles", "sigma 1 deg", "pD 0.95", "planner   optimized"):
+        assert word in out
+
+
+def write_case(tmp_path, mission=MISSION_TEXT, world=WORLD_TEXT):
+    (tmp_path / "w.toml").write_text(world)
+    path = tmp_path / "m.toml"
+    path.write_text(mission.replace('world = "../worlds/paper.toml"', 'world = "w.toml"'))
+    return path
+
+
+def sub(old, new, count=1):
+    assert old in MISSION_TEXT, old
+    return MISSION_TEXT.replace(old, new, count)
+
+
+def wsub(old, new):
+    assert old in WORLD_TEXT, old
+    return WORLD_TEXT.replace(old, new, 1)
+
+
+NO_TARGETS = MISSION_TEXT.split("# Sigma_0")[0]
+BAD_MISSIONS = [
+    # (mission text, key path, message fragment)
+    (sub("clutter_rate = 1.0", "clutter_rate = 1.0\ncolour = 'red'"), "sensor.colour", "unknown key"),
+    (sub("[planner]\n", "[planner]\nnmae = 'x'\n"), "planner.nmae", "unknown key (did you mean 'name'?)"),
+    (sub("p_detect = 0.95\n", ""), "sensor.p_detect", "missing required key"),
+    (sub("sigma_deg = 1.0", "sigma_dg = 1.0"), "sensor.sigma_deg", "missing required key (found 'sigma_dg'"),
+    (sub("[dynamics]", "[dynamix]"), "dynamics", "missing required key"),
+    (sub("n_theta = 15", 'n_theta = "15"'), "uav.n_theta", "expected an integer, got str '15'"),
+    (sub("steps = 50", "steps = 50.5"), "steps", "expected an integer"),
+    (sub("sigma_deg = 1.0", "sigma_deg = true"), "sensor.sigma_deg", "expected a number, got boolean true"),
+    (sub("start_m = [150.0, 200.0, 40.0]", "start_m = [150.0, 200.0]"), "uav.start_m", "expected a 3 array"),
+    (sub("sigma_deg = 1.0", "sigma_deg = inf"), "sensor.sigma_deg", "expected a finite number"),
+    (sub("rho = 0.01", "rho = nan"), "guidance.rho", "expected a finite number"),
+    (sub("start_m = [150.0, 200.0, 40.0]", "start_m = [150.0, nan, 40.0]"), "uav.start_m", "finite"),
+    (sub(COV0, "cov0_si = [-200.0, 200.0, 1e-10, 20.0, 20.0, 1e-10]"), "targets[0].cov0_si", "variance 0 is negative"),
+    (sub(COV0, "cov0_si = [200.0, 200.0, 0.0, 20.0, 20.0, 1e-10]"), "targets[0].cov0_si", "not positive definite"),
+    (
+        sub("process_noise_cov_si = [30.0, 30.0, 1e-10, 3.0, 3.0, 1e-10]",
+            "process_noise_cov_si = [[30, 40, 0, 0, 0, 0], [40, 30, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0],"
+            " [0, 0, 0, 3, 0, 0], [0, 0, 0, 0, 3, 0], [0, 0, 0, 0, 0, 1]]"),
+        "dynamics.process_noise_cov_si", "not positive definite",
+    ),
+    (
+        sub("process_noise_cov_si = [30.0, 30.0, 1e-10, 3.0, 3.0, 1e-10]",
+            "process_noise_cov_si = [[30, 1, 0, 0, 0, 0], [0, 30, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0],"
+            " [0, 0, 0, 3, 0, 0], [0, 0, 0, 0, 3, 0], [0, 0, 0, 0, 0, 1]]"),
+        "dynamics.process_noise_cov_si", "not symmetric",
+    ),
+    (sub("p_detect = 0.95", "p_detect = 1.5"), "sensor.p_detect", "must be <= 1"),
+    (sub("p_detect = 0.95", "p_detect = -0.1"), "sensor.p_detect", "must be >= 0"),
+    (sub("clutter_rate = 1.0", "clutter_rate = -1.0"), "sensor.clutter_rate", "must be >= 0"),
+    (sub("n_theta = 15", "n_theta = 0"), "uav.n_theta", "must be >= 1"),
+    (sub("position_m = [238.0, 706.0, 0.0]", "position_m = [350.0, 500.0, 0.0]"),
+     "targets[1].position_m", "inside obstacle 'A'"),
+    (sub("position_m = [238.0, 706.0, 0.0]", "position_m = [1238.0, 706.0, 0.0]"),
+     "targets[1].position_m", "outside the area"),
+    (sub("start_m = [150.0, 200.0, 40.0]", "start_m = [350.0, 500.0, 40.0]"), "uav.start_m", "inside obstacle 'A'"),
+    (sub("start_m = [150.0, 200.0, 40.0]", "start_m = [150.0, -1.0, 40.0]"), "uav.start_m", "outside the area"),
+    (sub("[guidance]", "[uav.operating_region]\nmin_m = [0.0, 0.0]\nmax_m = [1000.0, 100.0]\n\n[guidance]"),
+     "uav.start_m", "outside the UAV operating region"),
+    (sub('goal = "goal"', 'goal = "home"'), "targets[0].goal", "no goal region 'home'"),
+    (sub('name = "optimized"', 'name = "spiral"'), "planner.name", "must be one of"),
+    (sub('truth = "planned"', 'truth = "exact"'), "truth", "must be one of planned, stochastic"),
+    (NO_TARGETS.replace("seed = 2023", "seed = 2023\ntargets = 'T1'"), "targets", "expected an array of tables"),
+    (NO_TARGETS.replace("seed = 2023", "seed = 2023\ntargets = []"), "targets", "at least one"),
+]
+
+
+@pytest.mark.parametrize("text, key, fragment", BAD_MISSIONS, ids=[c[1] + ":" + c[2][:20] for c in BAD_MISSIONS])
+def test_bad_mission(tmp_path, capsys, text, key, fragment):
+    path = write_case(tmp_path, mission=text)
+    assert main(["validate", str(path)]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.splitlines()
+    assert len(lines) == 1
+    assert lines[0].startswith(f"error: {path}: {key}: "), lines[0]
+    assert fragment in lines[0]
+
+
+BAD_WORLDS = [
+    (wsub("center_m = [500.0, 150.0]", "center_m = [375.0, 500.0]"), "goals[0].center_m", "inside obstacle 'A'"),
+    (wsub("center_m = [500.0, 150.0]", "center_m = [1500.0, 150.0]"), "goals[0].center_m", "outside the area"),
+    (wsub("size_m = [100.0, 100.0]", "size_m = [100.0, 0.0]"), "goals[0].size_m", "must be positive"),
+    (wsub("max_m = [450.0, 600.0, 60.0]", "max_m = [250.0, 600.0, 60.0]"), "obstacles[0].max_m", "must exceed"),
+    (wsub('name = "C"', 'name = "C"\nheight_m = 3'), "obstacles[2].height_m", "unknown key"),
+    (wsub("[area]\n", "[area]\nmin_m = [0.0, 0.0]\n").replace("min_m = [0.0, 0.0, 0.0]\n", "", 1),
+     "area.min_m", "expected a 3 array"),
+]
+
+
+@pytest.mark.parametrize("text, key, fragment", BAD_WORLDS, ids=[c[1] for c in BAD_WORLDS])
+def test_bad_world(tmp_path, capsys, text, key, fragment):
+    path = write_case(tmp_path, world=text)
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert len(err) == 1 and err[0].startswith(f"error: {tmp_path / 'w.toml'}: {key}: ") and fragment in err[0]
+
+
+def test_missing_world_file(tmp_path, capsys):
+    path = tmp_path / "m.toml"
+    path.write_text(MISSION_TEXT.replace('"../worlds/paper.toml"', '"nowhere.toml"'))
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err == f"error: {path}: world: file not found: {tmp_path / 'nowhere.toml'}"
+
+
+def test_missing_and_malformed_mission_file(tmp_path, capsys):
+    assert main(["validate", str(tmp_path / "none.toml")]) == 2
+    assert capsys.readouterr().err.strip() == f"error: {tmp_path / 'none.toml'}: (file): file not found"
+    bad = tmp_path / "bad.toml"
+    bad.write_text("steps = = 3\n")
+    assert main(["validate", str(bad)]) == 2
+    assert re.match(rf"error: {re.escape(str(bad))}: \(file\): not valid TOML: .*line 1", capsys.readouterr().err)
+
+
+def test_cli_subprocess_has_no_traceback(tmp_path):
+    """The installed entry point, as a user runs it: one stderr line, exit status 2."""
+    path = write_case(tmp_path, mission=sub("p_detect = 0.95", "p_detect = 2.0"))
+    proc = subprocess.run([sys.executable, "-m", "uavsim", "validate", str(path)], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert proc.stdout == ""
+    assert proc.stderr == f"error: {path}: sensor.p_detect: must be <= 1, got 2.0\n"

@@ -1,0 +1,107 @@
+"""Ground-target motion model.
+
+004_22b452551a772073.txt Eq. (1)-(2)::
+
+    x_t = A x_{t-1} + B u_{t-1} + nu_{t-1},   nu ~ N(0, Q)
+    A = [[I, dt I], [0, (1 - eps) I]],        B = [[0], [dt/m I]]
+
+with state ``x = [p_x, p_y, p_z, v_x, v_y, v_z]`` (m, m/s) and control force u (N).
+Eq. (6) gives the moments of the open-loop prediction from ``N(mu_t, Sigma_t)``::
+
+    mu_{t+tau+1|t}    = A^{tau+1} mu_t + sum_k A^{tau-k} B u_{t+k|t}
+    Sigma_{t+tau+1|t} = A^{tau+1} Sigma_t (A^T)^{tau+1} + sum_k A^{tau-k} Q (A^T)^{tau-k}
+
+computed here by the equivalent recursion ``mu <- A mu + B u``, ``Sigma <- A Sigma A^T + Q``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+
+def transition_matrices(dt: float, friction: float, mass: float) -> tuple[np.ndarray, np.ndarray]:
+    """``A (6, 6)`` and ``B (6, 3)`` of Eq. (2).
+
+    References
+    ----------
+    004_22b452551a772073.txt Eq. (2).
+    """
+    eye, zero = np.eye(3), np.zeros((3, 3))
+    a = np.block([[eye, dt * eye], [zero, (1.0 - friction) * eye]])
+    b = np.vstack([zero, (dt / mass) * eye])
+    return a, b
+
+
+@dataclass(frozen=True, eq=False)
+class Dynamics:
+    """Eq. (1)-(2) parameters shared by all targets (the paper's assumption).
+
+    Attributes
+    ----------
+    dt : sampling interval (s); friction : epsilon in [0, 1]; mass : m (kg);
+    q : (6, 6) process-noise covariance Q.
+    """
+
+    dt: float
+    friction: float
+    mass: float
+    q: np.ndarray
+
+    @cached_property
+    def a(self) -> np.ndarray:
+        return transition_matrices(self.dt, self.friction, self.mass)[0]
+
+    @cached_property
+    def b(self) -> np.ndarray:
+        return transition_matrices(self.dt, self.friction, self.mass)[1]
+
+    @cached_property
+    def q_chol(self) -> np.ndarray:
+        """Lower Cholesky factor of Q, for sampling ``nu = L z``."""
+        return np.linalg.cholesky(self.q)
+
+    def step(self, x: np.ndarray, u: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
+        """One step of Eq. (1) for states ``x (..., 6)`` and controls ``u (..., 3)``.
+
+        With ``rng`` the process noise ``nu ~ N(0, Q)`` is added, one draw per state.
+        """
+        x_next = x @ self.a.T + u @ self.b.T
+        if rng is not None:
+            x_next = x_next + rng.standard_normal(x_next.shape) @ self.q_chol.T
+        return x_next
+
+    def predict_moments(
+        self, mean: np.ndarray, cov: np.ndarray, controls: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Eq. (6): means ``(T, 6)`` and covariances ``(T, 6, 6)`` of ``x_{t+tau+1|t}``.
+
+        Parameters
+        ----------
+        mean : (6,) mu_t; cov : (6, 6) Sigma_t; controls : (T, 3) u_{t+tau|t}.
+        """
+        n = controls.shape[0]
+        means, covs = np.empty((n, 6)), np.empty((n, 6, 6))
+        m, s = mean, cov
+        for k in range(n):  # T <= a few hundred; the recursion is inherently sequential
+            m = self.a @ m + self.b @ controls[k]
+            s = self.a @ s @ self.a.T + self.q
+            means[k], covs[k] = m, s
+        return means, covs
+
+
+@dataclass(frozen=True, eq=False)
+class Target:
+    """One target's prior belief ``N(mu_0, Sigma_0)`` and goal (Sec. III-A).
+
+    Attributes
+    ----------
+    name : label; mean0 : (6,); cov0 : (6, 6); goal : index into ``World.goals``.
+    """
+
+    name: str
+    mean0: np.ndarray
+    cov0: np.ndarray
+    goal: int
