@@ -1,0 +1,246 @@
+"""Guidance Problem (P1), 004 Sec. IV: exactness against independent solvers, safety of
+the plans, and the bounds the solver relies on."""
+
+import dataclasses
+import importlib.util
+import itertools
+
+import cvxpy as cp
+import numpy as np
+import pytest
+
+from uavsim.config import GuidanceConfig, load_mission
+from uavsim.guidance import Guidance
+from uavsim.guidance.faces import choose_faces
+from uavsim.guidance.model import build_p1
+from uavsim.targets import Dynamics
+from uavsim.world import World
+
+from .conftest import PAPER
+
+MISSION = load_mission(PAPER)
+GOAL = MISSION.world.goals[0].centroid
+HAS_SCIP = importlib.util.find_spec("pyscipopt") is not None
+
+
+@pytest.fixture(scope="module")
+def paper_guidance():
+    return Guidance(MISSION.world, MISSION.dynamics, MISSION.guidance)
+
+
+@pytest.fixture(scope="module")
+def paper_plans(paper_guidance):
+    return [paper_guidance.plan(t.mean0, t.cov0, GOAL) for t in MISSION.targets]
+
+
+def test_margin_big_m_and_speed_polygon_by_hand(paper_guidance):
+    g = paper_guidance.p1.geom
+    assert g.margin == pytest.approx(16 * 1.0 / 2 + 1.0)  # v dt / 2 + clearance
+    # obstacle A, x in [300, 450], area x in [0, 1000]: +x face b = 459, M = 459 - 0;
+    # -x face -x >= -291, M = -291 - (-1000) = 709
+    np.testing.assert_allclose(g.face_offsets[0], [459, -291, 609, -441])
+    np.testing.assert_allclose(g.big_m[0], [459, 709, 609, 559])
+    assert g.speed_bound == pytest.approx(16 * np.cos(np.pi / 16))
+    # every vertex of the inscribed polygon lies on the 16 m/s circle: the limit is never exceeded
+    k = len(g.speed_dirs)
+    vertices = 16 * np.column_stack([np.cos(2 * np.pi * np.arange(k) / k), np.sin(2 * np.pi * np.arange(k) / k)])
+    assert np.all(vertices @ g.speed_dirs.T <= g.speed_bound + 1e-9)
+
+
+def test_paper_plans_are_certified_and_safe(paper_plans):
+    """Every planned point and straight segment outside every obstacle, speed <= 16 m/s,
+    |u| <= 6000 N with u_z = 0, and Eq. (7) recomputed from the plan = reported objective."""
+    world, dyn, g = MISSION.world, MISSION.dynamics, MISSION.guidance
+    for plan in paper_plans:
+        assert plan.status == "optimal" and plan.gap <= g.gap
+        p = plan.positions
+        assert not world.in_obstacle(p).any()
+        assert not world.segment_blocked(p[:-1], p[1:]).any()
+        assert np.all(np.linalg.norm(plan.means[:, 3:5], axis=1) <= g.speed_max + 1e-6)
+        assert np.all(np.abs(plan.controls[:, :2]) <= g.force_max + 1e-6) and np.all(plan.controls[:, 2] == 0)
+        assert np.all(np.abs(p[:, 2]) < 1e-9)
+        u = plan.controls
+        objective = np.sum((p[-1, :2] - GOAL[:2]) ** 2) + g.rho * np.sum((u[1:] - u[:-1]) ** 2)
+        assert objective == pytest.approx(plan.objective, rel=1e-6, abs=1e-6)
+        assert plan.lower_bound <= plan.objective + 1e-9
+
+
+def test_obstacles_change_the_paper_plans(paper_plans):
+    """Targets 1-3 must detour (their obstacle-free plans would cross obstacles), target 4
+    has a clear run: the certified objectives are those of the reconstructed world."""
+    objectives = [p.objective for p in paper_plans]
+    np.testing.assert_allclose(objectives[:3], [10851.66, 1383.20, 20600.96], rtol=2e-4)
+    assert objectives[3] < 1e-3
+
+
+def test_eq6_covariance_in_plan(paper_plans):
+    t0 = MISSION.targets[0]
+    a, q = MISSION.dynamics.a, MISSION.dynamics.q
+    c1 = a @ t0.cov0 @ a.T + q
+    np.testing.assert_allclose(paper_plans[0].covs[0], c1, rtol=1e-12)
+    np.testing.assert_allclose(paper_plans[0].covs[1], a @ c1 @ a.T + q, rtol=1e-12)
+
+
+def short(horizon):
+    return dataclasses.replace(MISSION.guidance, horizon=horizon)
+
+
+def random_starts(n, seed):
+    """Seeded starts near the obstacles, moving, outside every inflated obstacle."""
+    rng = np.random.default_rng(seed)
+    starts = []
+    while len(starts) < n:
+        p = rng.uniform([150, 200], [900, 850])
+        v = rng.uniform(-8, 8, 2)
+        lo, hi = MISSION.world.obstacle_lo[:, :2] - 12, MISSION.world.obstacle_hi[:, :2] + 12
+        if not np.any(np.all((p >= lo) & (p <= hi), axis=1)):
+            starts.append(np.array([p[0], p[1], 0, v[0], v[1], 0]))
+    return starts
+
+
+@pytest.mark.skipif(not HAS_SCIP, reason="pyscipopt not installed: pip install '.[scip]' (the test extra has it)")
+def test_highs_matches_scip_on_short_horizons():
+    """SCIP solves the identical cvxpy model to proven optimality (no gap limit); the OA
+    objective must lie within its certified gap of SCIP's, up to SCIP's tolerance."""
+    cfg = short(20)
+    highs = Guidance(MISSION.world, MISSION.dynamics, cfg)
+    scip = Guidance(MISSION.world, MISSION.dynamics, cfg, solver="scip")
+    starts = [t.mean0 for t in MISSION.targets] + random_starts(6, seed=3)
+    cov = MISSION.targets[0].cov0
+    for mean in starts:
+        a, b = highs.plan(mean, cov, GOAL), scip.plan(mean, cov, GOAL)
+        assert a.status == "optimal" and b.status == "optimal"
+        assert abs(a.objective - b.objective) <= cfg.gap * max(a.objective, 1.0) + 1e-6 * max(b.objective, 1.0)
+
+
+def test_matches_enumeration_of_face_choices():
+    """One obstacle between start and goal, T = 5: all 4^4 face choices enumerated, each
+    QP solved by Clarabel through the cvxpy model with the faces fixed (no outer
+    approximation, no compilation, no pruning)."""
+    world = World("box", np.zeros(3), np.array([200.0, 200.0, 100.0]), np.array([[60.0, 40.0, 0.0]]),
+                  np.array([[100.0, 80.0, 30.0]]), ("box",), ())
+    dyn = MISSION.dynamics
+    cfg = GuidanceConfig(horizon=5, rho=0.01, force_max=6000.0, speed_max=16.0, speed_sides=16,
+                         clearance=1.0, gap=1e-4, time_limit=30.0)
+    goal = np.array([170.0, 62.0, 0.0])
+    mean = np.array([18.0, 60.0, 0.0, 9.0, 0.5, 0.0])  # far enough that the full margin is reachable
+    plan = Guidance(world, dyn, cfg).plan(mean, MISSION.targets[0].cov0, goal)
+    fixed = build_p1(world, dyn, cfg, fixed_faces=True)
+    fixed.x0.value, fixed.goal.value = mean[[0, 1, 3, 4]], goal[:2]
+    best = np.inf
+    for choice in itertools.product(range(4), repeat=cfg.horizon - 1):
+        y = np.ones((cfg.horizon - 1, 4))
+        y[np.arange(cfg.horizon - 1), choice] = 0.0
+        fixed.y.value = y
+        fixed.problem.solve(solver=cp.CLARABEL, canon_backend=cp.SCIPY_CANON_BACKEND)
+        if fixed.problem.status == cp.OPTIMAL:
+            best = min(best, fixed.problem.value)
+    assert np.isfinite(best) and best > 1.0  # the obstacle matters
+    assert plan.status == "optimal" and "near a wall" not in plan.message
+    assert abs(plan.objective - best) <= cfg.gap * max(best, 1.0) + 1e-6 * best
+
+
+def _feasible_plans(guidance, mean, n, seed):
+    """Plans of P1 for several face choices (all feasible): read faces off perturbed paths."""
+    oa = guidance.oa
+    x0 = mean[[0, 1, 3, 4]]
+    lo, hi = oa.c.rows(np.r_[x0, GOAL[:2]])
+    relax = oa.qp.solve(lo, hi, np.ones(oa.shape), relax=True)
+    b = oa.offsets[None]
+    rng = np.random.default_rng(seed)
+    plans = []
+    for _ in range(n * 4):
+        pts = relax.x[2:, :2] + rng.normal(0, 60, 2) + rng.normal(0, 20, relax.x[2:, :2].shape)
+        y = choose_faces(pts, b, np.zeros(oa.shape), np.ones(oa.shape))
+        sol = oa.qp.solve(lo, hi, y)
+        if sol is not None:
+            plans.append(sol)
+        if len(plans) == n:
+            break
+    return relax, plans
+
+
+def test_growth_bound_holds(paper_guidance):
+    """|p_tau - p0_tau| <= sigma_tau sqrt(f - f0) for feasible plans around the
+    obstacle-free optimum (the bound that prunes binaries and tightens big-M)."""
+    sigma = paper_guidance.reach.sigma
+    checked = 0
+    for t in MISSION.targets[:3]:
+        relax, plans = _feasible_plans(paper_guidance, t.mean0, 8, seed=5)
+        for sol in plans:
+            dist = np.linalg.norm(sol.x[:, :2] - relax.x[:, :2], axis=1)
+            assert np.all(dist <= sigma * np.sqrt(max(sol.f - relax.f, 0.0)) + 1e-6)
+            checked += 1
+    assert checked >= 12
+
+
+def test_force_and_speed_reach_hold(paper_guidance):
+    reach = paper_guidance.reach
+    from uavsim.guidance.model import FACE_NORMALS
+
+    for t in MISSION.targets[:3]:
+        x0 = t.mean0[[0, 1, 3, 4]]
+        lo, hi = reach.face_bounds(x0, GOAL[:2])
+        _, plans = _feasible_plans(paper_guidance, t.mean0, 5, seed=6)
+        for sol in plans:
+            vals = sol.x[2:, :2] @ FACE_NORMALS.T
+            assert np.all(vals >= lo - 1e-6) and np.all(vals <= hi + 1e-6)
+
+
+def test_warm_start_gives_the_cold_optimum(paper_guidance, paper_plans):
+    """Re-plan one step on from a perturbed start, with and without the shifted plan."""
+    rng = np.random.default_rng(8)
+    for t, plan in zip(MISSION.targets[:3], paper_plans[:3]):
+        start = plan.means[0] + np.r_[rng.normal(0, 3, 2), 0, rng.normal(0, 1, 2), 0]
+        cold = paper_guidance.plan(start, t.cov0, GOAL)
+        warm = paper_guidance.plan(start, t.cov0, GOAL, warm=plan)
+        assert cold.status == warm.status == "optimal"
+        assert warm.objective == pytest.approx(cold.objective, rel=2 * MISSION.guidance.gap)
+
+
+def test_deterministic(paper_guidance):
+    t = MISSION.targets[1]
+    a, b = paper_guidance.plan(t.mean0, t.cov0, GOAL), paper_guidance.plan(t.mean0, t.cov0, GOAL)
+    np.testing.assert_array_equal(a.controls, b.controls)
+    assert a.objective == b.objective
+
+
+def test_start_inside_obstacle_is_reported_and_falls_back(paper_guidance, paper_plans):
+    t = MISSION.targets[0]
+    inside = np.array([305.0, 520.0, 0.0, 0.9, -4.0, 0.0])  # in obstacle A
+    plan = paper_guidance.plan(inside, t.cov0, GOAL)
+    assert plan.status == "infeasible" and not plan.ok and plan.message
+    fallback = paper_plans[0].shifted(MISSION.dynamics, inside, t.cov0, plan.message)
+    assert fallback.status == "fallback"
+    np.testing.assert_array_equal(fallback.controls[:-1], paper_plans[0].controls[1:])
+    np.testing.assert_allclose(fallback.means[0], MISSION.dynamics.step(inside, fallback.controls[0]))
+
+
+def test_time_limit_is_a_status_not_an_exception():
+    cfg = dataclasses.replace(MISSION.guidance, time_limit=1e-6)
+    t = MISSION.targets[0]
+    plan = Guidance(MISSION.world, MISSION.dynamics, cfg).plan(t.mean0, t.cov0, GOAL)
+    assert plan.status in ("time_limit", "error")
+    if plan.ok:
+        assert plan.gap > 0 and not MISSION.world.in_obstacle(plan.positions).any()
+    else:
+        assert plan.message
+
+
+def test_target_off_the_ground_is_an_error(paper_guidance):
+    t = MISSION.targets[0]
+    plan = paper_guidance.plan(t.mean0 + np.array([0, 0, 5.0, 0, 0, 0]), t.cov0, GOAL)
+    assert plan.status == "error" and "ground" in plan.message
+
+
+def test_dynamics_matrices_match_model():
+    """The compiled model's dynamics rows agree with Eq. (2): propagate the plan's
+    controls with Dynamics.step and compare with the solver's own states."""
+    dyn = Dynamics(1.0, 0.2, 1300.0, MISSION.dynamics.q)
+    g = Guidance(MISSION.world, dyn, short(10))
+    t = MISSION.targets[1]
+    plan = g.plan(t.mean0, t.cov0, GOAL)
+    x = t.mean0
+    for k in range(10):
+        x = dyn.step(x, plan.controls[k])
+        np.testing.assert_allclose(x, plan.means[k], atol=1e-6)

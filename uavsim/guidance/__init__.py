@@ -1,0 +1,156 @@
+"""Target guidance: Problem (P1) of 004_22b452551a772073.txt Sec. IV, solved exactly.
+
+``Guidance`` builds the cvxpy model once (:mod:`.model`), compiles it
+(:mod:`.compiled`) and solves it by outer approximation with HiGHS (:mod:`.oa`), or
+with SCIP through cvxpy for cross-checks.  ``Guidance.plan`` returns a :class:`Plan`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import cvxpy as cp
+import numpy as np
+
+from ..config import GuidanceConfig
+from ..targets import Dynamics
+from ..world import World
+from .faces import Reach
+from .model import GROUND_BAND_M, KN, build_p1
+from .oa import OuterApproximation
+
+SOLVERS = ("highs", "scip")
+
+
+@dataclass(frozen=True, eq=False)
+class Plan:
+    """One target's guidance plan over the horizon (SI units).
+
+    Attributes
+    ----------
+    status : "optimal", "time_limit", "infeasible", "error" or "fallback" (the caller
+        reused the previous plan shifted by one step; see :meth:`shifted`).
+    objective : Eq. (7) in m^2; lower_bound : certified; gap : ``(obj - lb) / max(obj, 1)``.
+    iterations : master MILPs solved; solve_seconds : wall time.
+    controls : (T, 3) N, ``u_{t+tau|t}``; means : (T, 6) ``mu_{t+tau+1|t}`` (Eq. 6, 8b);
+    covs : (T, 6, 6) ``Sigma_{t+tau+1|t}`` (Eq. 6).
+    faces : (T-1, n, 4) active-face choice (warm start); terms : (K,) squared terms.
+    first_step_in_margin : ``mu_{t+1|t}``, fixed by the start, lies inside an obstacle's
+        safety margin (its avoidance constraint cannot be enforced; see model docstring).
+    """
+
+    status: str
+    objective: float
+    lower_bound: float
+    gap: float
+    iterations: int
+    solve_seconds: float
+    controls: np.ndarray | None
+    means: np.ndarray | None
+    covs: np.ndarray | None
+    faces: np.ndarray | None = None
+    terms: np.ndarray | None = None
+    first_step_in_margin: bool = False
+    message: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return self.controls is not None
+
+    @property
+    def positions(self) -> np.ndarray:
+        return self.means[:, :3]
+
+    def shifted(self, dynamics: Dynamics, mean: np.ndarray, cov: np.ndarray, why: str) -> "Plan":
+        """The fallback after a failed re-plan: this plan's controls one step on (the
+        last repeated), propagated from the new start ``N(mean, cov)`` with Eq. (6)."""
+        controls = np.vstack([self.controls[1:], self.controls[-1:]])
+        means, covs = dynamics.predict_moments(mean, cov, controls)
+        faces = None if self.faces is None else np.concatenate([self.faces[1:], self.faces[-1:]])
+        return replace(self, status="fallback", controls=controls, means=means, covs=covs, faces=faces,
+                       solve_seconds=0.0, iterations=0, message=why)
+
+
+class Guidance:
+    """Problem (P1) for one world, dynamics and settings: built and compiled once.
+
+    ``plan`` is a pure function of its arguments (no state carries over between calls),
+    so plans are reproducible whatever order targets or trials are solved in.
+    """
+
+    def __init__(self, world: World, dynamics: Dynamics, cfg: GuidanceConfig, solver: str = "highs"):
+        if solver not in SOLVERS:
+            raise ValueError(f"unknown guidance solver {solver!r}; choose from {SOLVERS}")
+        self.dynamics, self.cfg, self.solver = dynamics, cfg, solver
+        self.p1 = build_p1(world, dynamics, cfg)
+        geom = self.p1.geom
+        self.reach = Reach.build(dynamics.dt, dynamics.friction, dynamics.mass, cfg.horizon, self.p1.rho_model,
+                                 cfg.speed_max, cfg.force_max / KN, geom.area_lo, geom.area_hi)
+        self.oa = OuterApproximation(self.p1, self.reach, cfg.gap, cfg.time_limit) if solver == "highs" else None
+
+    def plan(self, mean: np.ndarray, cov: np.ndarray, goal: np.ndarray, warm: Plan | None = None) -> Plan:
+        """Solve P1 from the belief ``N(mean (6,), cov (6, 6))`` (Eq. 8c) to ``goal (3,)``.
+
+        ``warm``: the previous plan of this target (its faces and terms, shifted one step).
+        """
+        t0 = time.perf_counter()
+        x0 = np.array([mean[0], mean[1], mean[3], mean[4]])
+        z_means, _ = self.dynamics.predict_moments(mean, cov, np.zeros((self.cfg.horizon, 3)))
+        if np.any(np.abs(z_means[:, 2]) > GROUND_BAND_M):
+            return self._failed("error", t0, f"target is not on the ground (|z| > {GROUND_BAND_M} m within the horizon)")
+        if self.solver == "scip":
+            status, obj, lb, u, faces, terms, it, msg = self._solve_scip(x0, goal[:2])
+        else:
+            sol = self.oa.solve(x0, goal[:2], None if warm is None or warm.faces is None else _shift_warm(warm))
+            status, obj, lb, it, msg = sol.status, sol.objective, sol.lower_bound, sol.iterations, sol.message
+            u, faces, terms = (None, None, None) if sol.plan is None else (sol.plan.u, sol.plan.y, sol.plan.s)
+        if u is None:
+            return self._failed(status, t0, msg, lb)
+        controls = np.column_stack([u * KN, np.zeros(len(u))])
+        means, covs = self.dynamics.predict_moments(mean, cov, controls)
+        gap = max(obj - lb, 0.0) / max(obj, 1.0)
+        return Plan(status, obj, lb, gap, it, time.perf_counter() - t0, controls, means, covs, faces, terms,
+                    self._in_margin(means[0]), msg)
+
+    def _failed(self, status, t0, message, lower=np.nan) -> Plan:
+        return Plan(status, np.inf, lower, np.inf, 0, time.perf_counter() - t0, None, None, None, message=message)
+
+    def _in_margin(self, mean1: np.ndarray) -> bool:
+        g = self.p1.geom
+        return bool(np.any(np.all((mean1[:2] >= g.lo) & (mean1[:2] <= g.hi), axis=1)))
+
+    def _solve_scip(self, x0, goal):
+        """The same cvxpy model, solved by SCIP (optional extra ``pyscipopt``).
+
+        SCIP runs without a gap limit: cvxpy reports SCIP's gap-limit and time-limit stops
+        alike ("optimal_inaccurate"), so only a proved optimum is called "optimal" (gap 0);
+        anything else is a time limit with an unknown lower bound.
+        """
+        p = self.p1
+        p.x0.value, p.goal.value = x0, goal
+        try:
+            p.problem.solve(solver=cp.SCIP, scip_params={"limits/time": self.cfg.time_limit},
+                            canon_backend=cp.SCIPY_CANON_BACKEND)
+        except (cp.error.SolverError, ImportError) as exc:
+            return "error", np.inf, np.nan, None, None, None, 0, f"SCIP failed: {exc}"
+        status = p.problem.status
+        if status == cp.INFEASIBLE:
+            return "infeasible", np.inf, np.inf, None, None, None, 0, "SCIP: infeasible"
+        if status not in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE):
+            return "error", np.inf, np.nan, None, None, None, 0, f"SCIP: {status}"
+        obj = float(p.problem.value)
+        lb = obj if status == cp.OPTIMAL else np.nan
+        y = np.round(p.y.value).reshape(p.horizon - 1, -1, 4)
+        terms = np.r_[p.e.value, p.d.value.reshape(-1, order="F")]
+        return ("optimal" if status == cp.OPTIMAL else "time_limit"), obj, lb, p.u.value, y, terms, 0, "SCIP via cvxpy"
+
+
+def _shift_warm(plan: Plan) -> tuple[np.ndarray, np.ndarray]:
+    """Faces and terms of ``plan`` one step on: step tau of the new plan is step tau + 1
+    of the old one; the last step repeats."""
+    faces = np.concatenate([plan.faces[1:], plan.faces[-1:]])
+    ne = 2
+    d = plan.terms[ne:].reshape(2, -1)  # [d_x..., d_y...] in cvxpy's column-major order
+    d = np.concatenate([d[:, 1:], np.zeros((2, 1))], axis=1)
+    return faces, np.r_[plan.terms[:ne], d.reshape(-1)]

@@ -1,0 +1,192 @@
+"""Which obstacle faces can matter: reachable sets, pruning, tight big-M, start heuristics.
+
+Face index i of an obstacle runs over +x, -x, +y, -y (:data:`.model.FACE_NORMALS`);
+``y[r, j, i]`` (step tau = r + 2, kept obstacle j) follows the paper: 1 switches the face
+off, and at least one face per obstacle and step stays on (Eq. 8e).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .model import FACE_NORMALS
+
+
+@dataclass(frozen=True)
+class Reach:
+    """Where ``p_tau`` (tau = 2..T) can be, for every plan at least as good as an incumbent.
+
+    * force: per axis, ``p_tau`` lies within ``F sum_k g_tau,k`` of the zero-force
+      response ``p_t + c_tau v_t`` (``g`` the sensitivity of ``p_tau`` to ``u_k``);
+    * speed: every planned speed is ``<= v_max``, so ``|p_tau - p_{t+1}|_2 <= (tau - 1) dt v_max``;
+    * area: the model keeps positions in the area;
+    * goal: ``|p_T - G_o|^2 <= f <= UB``, so ``|p_tau - G_o|_2 <= sqrt(UB) + (T - tau) dt v_max``;
+    * growth: around the obstacle-free optimum ``u0`` (minimiser of f over the convex
+      set C0 of plans without obstacle constraints) every u in C0 has
+      ``f(u) - f(u0) >= (u - u0)' H (u - u0)`` (exact Taylor expansion of the quadratic f
+      plus first-order optimality), ``H = g_T g_T' + rho D'D`` per axis.  Every plan of P1
+      is in C0, so ``f <= UB`` implies ``|p_tau - p0_tau|_2 <= sigma_tau sqrt(UB - f0)``
+      with ``sigma_tau^2 = g_tau' H^-1 g_tau`` (the two axes share one budget).
+
+    For each face direction ``a_i`` the support functions of these sets bound
+    ``a_i . p_tau`` from above and below; the intersection obeys the tightest bound.
+    Arrays are indexed by tau = 0..T.
+    """
+
+    dt: float
+    v_max: float
+    area_lo: np.ndarray
+    area_hi: np.ndarray
+    sigma: np.ndarray  # growth radius per unit sqrt(cost), m / m
+    free: np.ndarray  # c_tau of the zero-force response p_t + c_tau v_t, s
+    force: np.ndarray  # per-axis reach under the force bound, m
+
+    @classmethod
+    def build(cls, dt, friction, mass, horizon, rho_model, v_max, force_max_model, area_lo, area_hi) -> "Reach":
+        """From the model's sensitivities (per axis; forces in model units, see :mod:`.model`)."""
+        from .model import KN
+
+        gain = dt * KN / mass
+        g_p, g_v = np.zeros((horizon + 1, horizon)), np.zeros((horizon + 1, horizon))
+        free_p, free_v = np.zeros(horizon + 1), np.ones(horizon + 1)
+        for tau in range(1, horizon + 1):  # inherently sequential; runs once per Guidance
+            g_p[tau] = g_p[tau - 1] + dt * g_v[tau - 1]
+            g_v[tau] = (1.0 - friction) * g_v[tau - 1]
+            g_v[tau, tau - 1] += gain
+            free_p[tau] = free_p[tau - 1] + dt * free_v[tau - 1]
+            free_v[tau] = (1.0 - friction) * free_v[tau - 1]
+        d = np.diff(np.eye(horizon), axis=0)
+        h = np.outer(g_p[-1], g_p[-1]) + rho_model * d.T @ d
+        sigma = np.sqrt(np.einsum("ti,ti->t", g_p, np.linalg.solve(h, g_p.T).T))
+        return cls(dt, v_max, np.asarray(area_lo), np.asarray(area_hi), sigma, free_p, force_max_model * g_p.sum(1))
+
+    @property
+    def horizon(self) -> int:
+        return len(self.sigma) - 1
+
+    def face_bounds(self, x0, goal, ub=np.inf, relaxed=None) -> tuple[np.ndarray, np.ndarray]:
+        """``(lo, hi)``, each ``(T-1, 4)``: bounds of ``a_i . p_tau`` for tau = 2..T.
+
+        ``x0 = [p_x, p_y, v_x, v_y]`` the start; ``relaxed = (points (T-1, 2), f0)`` the
+        obstacle-free optimum, for the growth disk (used when ``ub`` is finite).
+        """
+        tau = np.arange(2, self.horizon + 1)[:, None]
+        ax = FACE_NORMALS
+        area = np.array([self.area_lo, self.area_hi]) @ ax.T  # (2, 4)
+        free = x0[None, :2] + self.free[2:, None] * x0[None, 2:]
+        # faces are axis-aligned: the support of a box is its centre's value +- its half-width
+        lo = np.maximum(area.min(0), free @ ax.T - self.force[2:, None])
+        hi = np.minimum(area.max(0), free @ ax.T + self.force[2:, None])
+        p1 = x0[:2] + self.dt * x0[2:]
+        disks = [(p1[None, :], (tau - 1) * self.dt * self.v_max)]
+        if np.isfinite(ub):
+            disks.append((goal[None, :], np.sqrt(max(ub, 0.0)) + (self.horizon - tau) * self.dt * self.v_max))
+            if relaxed is not None:
+                points, f0 = relaxed
+                budget = max(ub - f0, 0.0) * (1 + 1e-6) + 1e-6 * max(ub, 1.0)  # solver round-off
+                disks.append((points, self.sigma[2:, None] * np.sqrt(budget) + 1e-3))
+        for centre, radius in disks:
+            lo = np.maximum(lo, centre @ ax.T - radius)
+            hi = np.minimum(hi, centre @ ax.T + radius)
+        return lo, hi
+
+
+def prune(face_lo: np.ndarray, face_hi: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """Fix the binaries the reachable set decides.  Returns ``(y_lo, y_hi)`` of shape
+    ``(T-1, n, 4)`` or None when some step has no reachable face (infeasible).
+
+    * a face no reachable point can satisfy cannot be the active one: ``y = 1``;
+    * if every reachable point satisfies face i, the obstacle cannot be hit at that
+      step: activate i (``y_i = 0``, a redundant constraint), switch the others off;
+    * a single remaining face must be the active one (Eq. 8e).
+    """
+    reachable = face_hi[:, None, :] >= b  # (T-1, n, 4)
+    surely = face_lo[:, None, :] >= b
+    y_lo = (~reachable).astype(float)
+    y_hi = np.ones_like(y_lo)
+    free = surely.any(axis=2)
+    pick = np.argmax(surely, axis=2)
+    onehot = np.arange(4)[None, None, :] == pick[..., None]
+    y_lo = np.where(free[..., None], (~onehot).astype(float), y_lo)
+    y_hi = np.where(free[..., None], y_lo, y_hi)
+    n_open = (y_lo == 0).sum(axis=2)
+    if np.any(n_open == 0):
+        return None
+    single = (n_open == 1)[..., None] & (y_lo == 0)
+    y_hi = np.where(single, 0.0, y_hi)
+    return y_lo, y_hi
+
+
+def choose_faces(points: np.ndarray, b: np.ndarray, y_lo: np.ndarray, y_hi: np.ndarray) -> np.ndarray:
+    """A complete face choice: per step and obstacle, the allowed face with the largest
+    slack ``a_i . p - b_i`` at ``points (T-1, 2)`` (the face the point is most clearly
+    beyond).  Returns y (T-1, n, 4) in {0, 1} within the bounds."""
+    slack = np.where(y_lo == 0, _slack(points, b), -np.inf)
+    forced = y_hi == 0
+    slack = np.where(forced.any(axis=2, keepdims=True), np.where(forced, np.inf, -np.inf), slack)
+    pick = np.argmax(slack, axis=2)
+    return (np.arange(4)[None, None, :] != pick[..., None]).astype(float)
+
+
+
+
+def _slack(points: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(T-1, n, 4) signed clearance ``a_i . p - b_i`` (>= 0: beyond face i)."""
+    return (points @ FACE_NORMALS.T)[:, None, :] - b
+
+
+def binding_faces(points: np.ndarray, y: np.ndarray, b: np.ndarray, tol: float = 1e-3) -> np.ndarray:
+    """``(k, 3)`` indices ``(step row, obstacle, face)`` of active faces the plan touches."""
+    return np.argwhere((y == 0) & (np.abs(_slack(points, b)) < tol))
+
+
+def _runs(mask: np.ndarray) -> list[np.ndarray]:
+    """Index arrays of the maximal runs of True in a 1-D mask."""
+    edges = np.flatnonzero(np.diff(np.r_[0, mask.astype(int), 0]))
+    return [np.arange(a, b) for a, b in zip(edges[::2], edges[1::2])]
+
+
+def extend_faces(y: np.ndarray, points: np.ndarray, b: np.ndarray, y_lo: np.ndarray, rank: int = 0) -> np.ndarray | None:
+    """One step of the upper-bound dive: switch on faces where ``points (T-1, 2)`` are
+    inside an inflated obstacle.  Returns the new choice, or None if nothing is violated.
+
+    ``y (T-1, n, 4)`` may leave a step's faces all off (that step is unconstrained for
+    that obstacle).  A run of consecutive violated steps gets one face for the whole run
+    (a path cannot jump from the +y side to the -y side in one step): the face its points
+    are nearest to in total, ``sum max(0, b_i - a_i . p)`` (``rank`` 1: the runner-up,
+    for an alternative dive), or, if the run touches steps already held on one face, that
+    face (the detour grows).
+    """
+    slack = _slack(points, b)
+    violated = np.all(slack < -1e-7, axis=2)
+    if not violated.any():
+        return None
+    y = y.copy()
+    for j in np.flatnonzero(violated.any(axis=0)):
+        held = np.argmin(y[:, j, :], axis=1)
+        is_held = y[:, j, :].min(axis=1) == 0
+        for run in _runs(violated[:, j]):
+            near = [k for k in (run[0] - 1, run[-1] + 1) if 0 <= k < len(y) and is_held[k]]
+            reach = y_lo[run, j, :] == 0  # (len(run), 4): face reachable at that step
+            cost = np.maximum(0.0, -slack[run, j, :]).sum(axis=0)
+            ranked = np.argsort(np.where(reach.any(axis=0), cost, np.inf), kind="stable")
+            face = held[near[0]] if near and reach[:, held[near[0]]].all() else ranked[min(rank, 3)]
+            # where that face cannot be reached (the first steps, by the force limit), take
+            # the reachable face the point is nearest to: the path turns a corner there
+            nearest = np.argmax(np.where(reach, slack[run, j, :], -np.inf), axis=1)
+            step_face = np.where(reach[:, face], face, nearest)
+            if not reach[np.arange(len(run)), step_face].all():
+                return None
+            y[run, j, :] = 1.0
+            y[run, j, step_face] = 0.0
+    return y
+
+
+def tight_big_m(face_lo: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(T-1, n, 4) per-step big-M: with ``y = 1`` face i must hold for every reachable
+    point, ``a_i . p >= b_i - M``, so ``M = b_i - min_reach a_i . p`` suffices.  Smaller
+    than the area-based M of the model, hence a tighter LP relaxation in the master.
+    ``face_lo (T-1, 4)``, ``b (T-1, n, 4)``."""
+    return np.maximum(b - face_lo[:, None, :], 0.0)

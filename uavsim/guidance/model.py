@@ -1,0 +1,185 @@
+"""Problem (P1), the guidance MIQP, as one cvxpy model built once with Parameters.
+
+004_22b452551a772073.txt Sec. IV, Eq. (6)-(8).  For one target, from the start mean
+``mu_t`` (Eq. 8c), choose forces ``u_{t+tau|t}``, tau = 0..T-1, to minimise Eq. (7)::
+
+    || mu^pos_{t+T|t} - G_o ||^2 + rho sum_{tau=1}^{T-1} || u_tau - u_{tau-1} ||^2
+
+subject to the mean dynamics Eq. (8b), obstacle avoidance Eq. (8d)-(8e) with big-M,
+and the state/input sets of Eq. (8f): ``|u_x|, |u_y| <= F``, ``u_z = 0``, ground speed
+``<= v_max`` and positions inside the area.
+
+Modelling choices (each stated where the paper is silent):
+
+* **Ground plane.** ``u_z = 0`` leaves ``(p_z, v_z)`` uncontrolled: ``z`` follows
+  ``A`` from ``mu_t`` and is ~0 for ground targets.  The model plans ``(x, y)`` only.
+  The z-faces of an obstacle cannot separate a ground target (its z lies strictly
+  inside the inflated z-slab ``[z_min - delta, z_max + delta]`` because ``delta > 0``),
+  so only the four vertical faces get binaries, and an obstacle whose slab misses the
+  ground band ``|z| <= GROUND_BAND_M`` is dropped.  ``Sum_i y_i <= 3`` is Eq. (8e) with
+  the z-faces removed.
+* **Sparse form.** States ``x_tau = [p_x, p_y, v_x, v_y]`` are variables linked by Eq.
+  (8b) written step by step; this is Eq. (6)'s closed form, unrolled.  Only the start
+  state and the goal are Parameters, so a re-plan changes right-hand sides only.
+* **Units.** Forces are in kN inside the model (conditioning); rho is rescaled to match,
+  so the objective is Eq. (7) in m^2 exactly.
+* **Speed.** ``||v||_2 <= v_max`` is replaced by an inscribed regular K-gon
+  ``c_k . v <= v_max cos(pi / K)``: every vertex is on the circle, so the true speed
+  never exceeds ``v_max`` (an inner approximation).
+* **Safe segments.** Obstacles are inflated by ``delta = v_max dt / 2 + clearance`` per
+  axis.  Proof that the straight segment between consecutive planned points then misses
+  the original cuboid: both points lie outside the inflated box, and the segment has
+  per-axis extent ``<= ||v||_2 dt <= v_max dt``.  If a point q of the segment were inside
+  the cuboid, the segment end nearer to q along the segment (parameter distance <= 1/2)
+  would be within ``v_max dt / 2`` of q in every axis, hence inside the inflated box: a
+  contradiction.  With ``clearance > 0`` the segment keeps strictly clear.
+* **Tight big-M.** Face i of obstacle n is ``a_i . p >= b_i + delta`` (inflated).  With
+  y = 1 it must hold for every p in the area, so ``M_i = b_i + delta - min_{p in area}
+  a_i . p``: the smallest valid constant, from the area bounds.
+* **Step 1.** ``p_{t+1} = p_t + dt v_t`` does not depend on any control (B has no
+  position rows), so its avoidance constraints cannot be influenced; they are left out
+  of the model.  A start whose first step lands inside a margin is reported by the
+  solver (``Plan.first_step_in_margin``) instead of making the problem infeasible.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cvxpy as cp
+import numpy as np
+
+from ..config import GuidanceConfig
+from ..targets import Dynamics
+from ..world import World
+
+GROUND_BAND_M = 1.0  # |z| of a planned ground target stays below this (checked at solve time)
+KN = 1000.0  # model force unit: 1 kN
+
+
+@dataclass(frozen=True, eq=False)
+class Geometry:
+    """Numbers derived once from world, dynamics and settings.
+
+    Attributes
+    ----------
+    margin : delta (m), the per-axis inflation.
+    lo, hi : (n, 2) inflated obstacle footprints of the obstacles kept (ground band).
+    kept : (n,) indices into ``World`` of the obstacles kept.
+    face_normals : (4, 2) outward normals of the faces +x, -x, +y, -y.
+    face_offsets : (n, 4) inflated offsets ``b_i + delta``.
+    big_m : (n, 4) tight big-M per face.
+    speed_dirs : (K, 2) polygon face normals; speed_bound : ``v_max cos(pi/K)``.
+    """
+
+    margin: float
+    clearance: float
+    lo: np.ndarray
+    hi: np.ndarray
+    kept: np.ndarray
+    face_normals: np.ndarray
+    face_offsets: np.ndarray
+    big_m: np.ndarray
+    speed_dirs: np.ndarray
+    speed_bound: float
+    area_lo: np.ndarray
+    area_hi: np.ndarray
+
+
+FACE_NORMALS = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+
+
+def geometry(world: World, dynamics: Dynamics, cfg: GuidanceConfig) -> Geometry:
+    """Inflated obstacles, tight big-M and the speed polygon (see module docstring)."""
+    margin = cfg.speed_max * dynamics.dt / 2.0 + cfg.clearance
+    z_lo, z_hi = world.obstacle_lo[:, 2] - margin, world.obstacle_hi[:, 2] + margin
+    kept = np.flatnonzero((z_lo < -GROUND_BAND_M) & (z_hi > GROUND_BAND_M))
+    lo = world.obstacle_lo[kept, :2] - margin
+    hi = world.obstacle_hi[kept, :2] + margin
+    offsets = np.stack([hi[:, 0], -lo[:, 0], hi[:, 1], -lo[:, 1]], axis=1)
+    a_lo, a_hi = world.area_lo[:2], world.area_hi[:2]
+    # min over the area of a_i . p: +x -> x_min, -x -> -x_max, +y -> y_min, -y -> -y_max
+    area_min = np.array([a_lo[0], -a_hi[0], a_lo[1], -a_hi[1]])
+    k = cfg.speed_sides
+    ang = 2.0 * np.pi * (np.arange(k) + 0.5) / k
+    return Geometry(
+        margin=margin, clearance=cfg.clearance, lo=lo, hi=hi, kept=kept, face_normals=FACE_NORMALS,
+        face_offsets=offsets, big_m=offsets - area_min,
+        speed_dirs=np.column_stack([np.cos(ang), np.sin(ang)]),
+        speed_bound=cfg.speed_max * np.cos(np.pi / k), area_lo=a_lo, area_hi=a_hi,
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class P1:
+    """The cvxpy model of Problem (P1) for one target, with its handles.
+
+    Variables: ``x (T+1, 4)`` states, ``u (T, 2)`` forces (kN), ``e (2,)`` terminal
+    error, ``d (T-1, 2)`` control increments (kN), ``y (T-1, 4 n)`` face binaries
+    (paper convention: ``y = 1`` switches a face off; column ``4 j + i`` is face i of
+    kept obstacle j; row r is planned step ``tau = r + 2``).
+    Parameters: ``x0 (4,)`` start ``[p_x, p_y, v_x, v_y]``, ``goal (2,)``.
+    """
+
+    problem: cp.Problem
+    x: cp.Variable
+    u: cp.Variable
+    e: cp.Variable
+    d: cp.Variable
+    y: cp.Variable | cp.Parameter
+    x0: cp.Parameter
+    goal: cp.Parameter
+    rho_model: float  # rho in the model's units: rho * KN^2
+    geom: Geometry
+    horizon: int
+
+
+def build_p1(world: World, dynamics: Dynamics, cfg: GuidanceConfig, fixed_faces: bool = False) -> P1:
+    """Build Problem (P1) once; re-plans only set ``x0`` and ``goal``.
+
+    With ``fixed_faces`` the binaries are a Parameter instead of a Variable: the convex
+    QP "P1 with the face choice fixed" (the outer approximation's upper-bound problem).
+
+    References
+    ----------
+    004_22b452551a772073.txt Eq. (7)-(8).
+    """
+    geom = geometry(world, dynamics, cfg)
+    t, n = cfg.horizon, len(geom.kept)
+    dt, keep_v, gain = dynamics.dt, 1.0 - dynamics.friction, dynamics.dt * KN / dynamics.mass
+    x = cp.Variable((t + 1, 4), name="x")
+    u = cp.Variable((t, 2), name="u")
+    e = cp.Variable(2, name="e")
+    d = cp.Variable((t - 1, 2), name="d")
+    shape = (t - 1, max(4 * n, 1))
+    y = cp.Parameter(shape, name="y") if fixed_faces else cp.Variable(shape, boolean=True, name="y")
+    x0 = cp.Parameter(4, name="x0")
+    goal = cp.Parameter(2, name="goal")
+    pos, vel = x[:, :2], x[:, 2:]
+    f_max = cfg.force_max / KN
+    cons = [
+        x[0] == x0,  # Eq. (8c)
+        pos[1:] == pos[:-1] + dt * vel[:-1],  # Eq. (8b), position rows of A
+        vel[1:] == keep_v * vel[:-1] + gain * u,  # Eq. (8b), velocity rows of A and B
+        e == pos[t] - goal,
+        d == u[1:] - u[:-1],
+        u <= f_max,
+        u >= -f_max,  # two one-sided bounds: |u| <= F written as cp.abs confuses HiGHS QP
+        vel[1:] @ geom.speed_dirs.T <= geom.speed_bound,
+        pos[2:] >= geom.area_lo,
+        pos[2:] <= geom.area_hi,
+    ]
+    if n:
+        # a_i . p for the four faces of every kept obstacle, steps 2..T: (T-1, 4n)
+        lhs = pos[2:] @ np.tile(geom.face_normals.T, n)
+        per_obstacle = np.kron(np.eye(n), np.ones((4, 1)))  # (4n, n): sums each obstacle's 4 faces
+        cons += [
+            lhs >= geom.face_offsets.reshape(-1) - cp.multiply(geom.big_m.reshape(-1), y),  # Eq. (8d)
+        ]
+        if not fixed_faces:
+            cons.append(y @ per_obstacle <= 3)  # Eq. (8e)
+    elif not fixed_faces:
+        cons.append(y == 0)
+    rho_model = cfg.rho * KN**2
+    problem = cp.Problem(cp.Minimize(cp.sum_squares(e) + rho_model * cp.sum_squares(d)), cons)
+    return P1(problem, x, u, e, d, y, x0, goal, rho_model, geom, t)
