@@ -1,4 +1,4 @@
-"""Command line: ``uavsim validate | plan``.
+"""Command line: ``uavsim validate | plan | run | compare``.
 
 Every command validates its mission first.  A bad file prints one line
 ``error: <file>: <key.path>: <what is wrong>`` to stderr and exits 2.  ``plan`` exits 1
@@ -12,6 +12,7 @@ import importlib.util
 import json
 import math
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -87,6 +88,83 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return 0 if all(r["status"] == "optimal" for r in rows) else 1
 
 
+def _campaign_mission(args: argparse.Namespace) -> Mission:
+    from .campaign import with_overrides
+
+    for flag in ("trials", "steps"):
+        if getattr(args, flag) is not None and getattr(args, flag) < 1:
+            raise UsageError(f"--{flag} must be at least 1")
+    if args.clutter_rate is not None and not (args.clutter_rate >= 0 and math.isfinite(args.clutter_rate)):
+        raise UsageError("--clutter-rate must be a finite number >= 0")
+    return with_overrides(load_mission(args.mission), args.steps, args.trials, args.seed, args.clutter_rate)
+
+
+def _progress(done: int, total: int) -> None:
+    print(f"\r  trial {done}/{total}", end="" if done < total else "\n", file=sys.stderr, flush=True)
+
+
+def _print_summary(s: dict) -> None:
+    print(f"planner {s['planner']}: {s['trials']} trials x {s['steps']} steps, seed {s['seed']}, "
+          f"clutter rate {s['clutter_rate']:g}, truth {s['truth']}")
+    print(f"  {'target':<8}{'time-avg RMSE m':>17}{'final RMSE m':>14}")
+    for name, per in zip(s["targets"], s["rmse_per_target"]):
+        print(f"  {name:<8}{np.mean(per):>17.2f}{per[-1]:>14.2f}")
+    print(f"  {'all':<8}{s['time_avg_rmse']:>17.2f}{s['rmse'][-1]:>14.2f}")
+    t = s["timing"]
+    print(f"  median s/step: guidance {t['guidance']:.3f}, filter {t['filter']:.3f}, planner {t['planner']:.4f}, "
+          f"truth {t['truth']:.3f}, total {t['total']:.3f}; guidance plans {s['guidance_status']}")
+
+
+def _write_json(path: Path, data) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(data, indent=1))
+    tmp.replace(path)
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from .campaign import run_campaign
+
+    mission = _campaign_mission(args)
+    planner = args.planner or mission.planner.name
+    out = Path(args.out or f"runs/{mission.path.stem}-{planner}")
+    summary = run_campaign(mission, planner, progress=None if args.quiet else _progress)
+    _write_json(out / "summary.json", summary)
+    _print_summary(summary)
+    print(f"wrote {out / 'summary.json'}")
+    return 0
+
+
+def cmd_compare(args: argparse.Namespace) -> int:
+    from .campaign import run_campaign
+    from .plots import rmse_plot
+    from .sim import PLANNERS
+
+    mission = _campaign_mission(args)
+    planners = [p.strip() for p in args.planners.split(",") if p.strip()]
+    unknown = [p for p in planners if p not in PLANNERS]
+    if unknown or not planners:
+        raise UsageError(f"--planners: unknown {', '.join(unknown) or '(none given)'}; choose from {', '.join(PLANNERS)}")
+    out = Path(args.out)
+    results = {}
+    for planner in planners:
+        results[planner] = run_campaign(mission, planner, progress=None if args.quiet else _progress)
+        _print_summary(results[planner])
+    _write_json(out / "compare.json", results)
+    rmse_plot(results, out / "rmse.png")
+    print(f"wrote {out / 'compare.json'} and {out / 'rmse.png'}")
+    return 0
+
+
+def _campaign_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("mission")
+    p.add_argument("--trials", type=int, help="Monte-Carlo trials (default: the mission's)")
+    p.add_argument("--steps", type=int, help="time steps per trial (default: the mission's)")
+    p.add_argument("--seed", type=int, help="campaign seed; trial k uses SeedSequence(seed).spawn(trials)[k]")
+    p.add_argument("--clutter-rate", type=float, help="override sensor.clutter_rate (false alarms per scan)")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="uavsim", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -101,6 +179,20 @@ def build_parser() -> argparse.ArgumentParser:
                    help="highs: exact outer approximation (default); scip: SCIP through cvxpy, for cross-checks")
     p.add_argument("--time-limit", type=float, default=None, help="seconds per target (default: the mission's)")
     p.set_defaults(func=cmd_plan)
+
+    from .sim import PLANNERS
+
+    p = sub.add_parser("run", help="run a Monte-Carlo campaign of the closed loop; writes DIR/summary.json")
+    _campaign_args(p)
+    p.add_argument("--planner", choices=PLANNERS, help="UAV planner (default: the mission's)")
+    p.add_argument("--out", help="output folder (default runs/<mission>-<planner>)")
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("compare", help="run several planners; writes DIR/compare.json and DIR/rmse.png")
+    _campaign_args(p)
+    p.add_argument("--planners", required=True, help=f"comma-separated, from {', '.join(PLANNERS)}")
+    p.add_argument("--out", required=True, help="output folder")
+    p.set_defaults(func=cmd_compare)
     return parser
 
 

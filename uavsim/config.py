@@ -193,7 +193,9 @@ class UavConfig:
     Attributes
     ----------
     start : (3,) m; step : Delta_r (m); n_theta, n_r : grid sizes; altitude : h (m);
-    region : optional operating region (Sec. VI-B "allowed sub-region").
+    region : optional operating region (Sec. VI-B "allowed sub-region");
+    random_start : each trial draws the start uniformly in the region (or the area) at
+        altitude h, outside obstacles (Sec. VI-B); otherwise every trial starts at ``start``.
     """
 
     start: np.ndarray
@@ -202,6 +204,7 @@ class UavConfig:
     n_r: int
     altitude: float
     region: Region2D | None
+    random_start: bool = False
 
 
 @dataclass(frozen=True)
@@ -216,6 +219,7 @@ class GuidanceConfig:
     clearance: float
     gap: float
     time_limit: float
+    horizon_mode: str = "receding"
 
 
 @dataclass(frozen=True)
@@ -227,11 +231,35 @@ class FilterConfig:
     roughening: float
 
 
+@dataclass(frozen=True)
+class ManoeuvreConfig:
+    """Pre-computed manoeuvres of Sec. VI-B (Fig. 3).  The paper publishes no sizes;
+    the mission chooses them.  ``step`` is the distance flown per time step."""
+
+    step: float
+    zigzag_length: float
+    zigzag_width: float
+    zigzag_legs: int
+    square_side: float
+    pentagon_radius: float
+    circle_radius: float
+
+
+@dataclass(frozen=True, eq=False)
+class FixedSensorsConfig:
+    """The 3-sensor baseline of Sec. VI-B: static bearing sensors, no false alarms."""
+
+    positions: np.ndarray  # (S, 3)
+    sensor: Sensor
+
+
 @dataclass(frozen=True, eq=False)
 class PlannerConfig:
-    """Which UAV planner runs (Sec. V-B, VI-B)."""
+    """Which UAV planner runs (Sec. V-B, VI-B) and the settings of the alternatives."""
 
     name: str
+    manoeuvres: ManoeuvreConfig
+    fixed_sensors: FixedSensorsConfig
 
 
 @dataclass(frozen=True, eq=False)
@@ -335,7 +363,7 @@ def load_mission(path: str | Path) -> Mission:
         top.fail("targets", "at least one [[targets]] table is required")
     guidance = _guidance(top.table("guidance"))
     filt = _filter(top.table("filter"))
-    planner = _planner(top.table("planner"))
+    planner = _planner(top.table("planner"), uav, sensor)
     mission = Mission(
         path=path, world_path=world_path, world=world, dynamics=dynamics, targets=targets,
         sensor=sensor, uav=uav, guidance=guidance, filter=filt, planner=planner,
@@ -379,6 +407,7 @@ def _uav(t: _Table, world: World) -> UavConfig:
         n_r=t.number("n_r", integer=True, lo=1),
         altitude=t.number("altitude_m", lo=0, lo_open=True),
         region=region,
+        random_start=_boolean(t, "random_start", False),
     )
     _check_point(world, t, "start_m", uav.start, "UAV start", region)
     t.finish()
@@ -433,6 +462,7 @@ def _guidance(t: _Table) -> GuidanceConfig:
         clearance=t.number("clearance_m", default=0.0, lo=0),
         gap=t.number("gap", default=1e-4, lo=0, lo_open=True, hi=1),
         time_limit=t.number("time_limit_s", default=30.0, lo=0, lo_open=True),
+        horizon_mode=t.string("horizon_mode", default="receding", choices=("receding", "shrinking")),
     )
     t.finish()
     return g
@@ -448,7 +478,34 @@ def _filter(t: _Table) -> FilterConfig:
     return f
 
 
-def _planner(t: _Table) -> PlannerConfig:
-    p = PlannerConfig(name=t.string("name", choices=PLANNERS))
+def _boolean(t: _Table, key: str, default: bool) -> bool:
+    value = t._get(key, default)
+    if not isinstance(value, bool):
+        t.fail(key, f"expected true or false, got {_describe(value)}")
+    return value
+
+
+def _planner(t: _Table, uav: UavConfig, sensor: Sensor) -> PlannerConfig:
+    name = t.string("name", choices=PLANNERS)
+    m = t.table("manoeuvres", optional=True) or _Table(t.file, t.path("manoeuvres"), {})
+    positive = dict(lo=0, lo_open=True)
+    manoeuvres = ManoeuvreConfig(
+        step=m.number("step_m", default=uav.n_r * uav.step, **positive),
+        zigzag_length=m.number("zigzag_length_m", default=300.0, **positive),
+        zigzag_width=m.number("zigzag_width_m", default=120.0, **positive),
+        zigzag_legs=m.number("zigzag_legs", default=4, integer=True, lo=1),
+        square_side=m.number("square_side_m", default=150.0, **positive),
+        pentagon_radius=m.number("pentagon_radius_m", default=90.0, **positive),
+        circle_radius=m.number("circle_radius_m", default=80.0, **positive),
+    )
+    m.finish()
+    f = t.table("fixed_sensors", optional=True) or _Table(t.file, t.path("fixed_sensors"), {})
+    xy = f.array("positions_m", (None, 2), default=[[150.0, 200.0], [800.0, 200.0], [500.0, 900.0]])
+    fixed = FixedSensorsConfig(
+        positions=np.column_stack([xy, np.zeros(len(xy))]),
+        sensor=Sensor(sigma=sensor.sigma, p_detect=f.number("p_detect", default=1.0, lo=0, hi=1),
+                      clutter_rate=f.number("clutter_rate", default=0.0, lo=0)),
+    )
+    f.finish()
     t.finish()
-    return p
+    return PlannerConfig(name=name, manoeuvres=manoeuvres, fixed_sensors=fixed)

@@ -1,4 +1,4 @@
-"""UAV grid motion and admissible moves.
+"""UAV motion: grid moves, their admission, and the pre-computed manoeuvres.
 
 004_22b452551a772073.txt Eq. (3): from ``s_{t-1}`` the UAV may move to::
 
@@ -10,14 +10,21 @@
 A candidate is admissible when it lies in the area and the operating region, outside
 every obstacle, and the straight segment to it crosses no obstacle (Sec. V-B, last
 paragraph; a crossing move is as bad as one that ends inside).
+
+Manoeuvres (Sec. VI-B, Fig. 3): closed loops (zig-zag, square, pentagon, circle) whose
+first waypoint is placed at the UAV's start, shifted as little as needed to lie inside
+the operating region; the UAV flies straight to the loop's first waypoint if shifted,
+then round the loop, ``step`` metres per time step, for as long as the mission lasts.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .config import UavConfig
-from .world import World
+from .config import ManoeuvreConfig, MissionError, UavConfig
+from .world import Region2D, World
+
+MANOEUVRES = ("zigzag", "square", "pentagon", "circle")
 
 
 def move_offsets(step: float, n_theta: int, n_r: int) -> np.ndarray:
@@ -44,3 +51,79 @@ def admissible(position: np.ndarray, cands: np.ndarray, world: World, uav: UavCo
     if uav.region is not None:
         ok &= uav.region.contains(cands)
     return ok
+
+
+def manoeuvre_loop(name: str, cfg: ManoeuvreConfig) -> np.ndarray:
+    """``(k, 2)`` waypoints of a closed loop in local coordinates, first waypoint at 0.
+
+    zigzag: ``legs`` diagonal legs over ``length`` (x) between y = 0 and y = ``width``,
+    then back along the same legs; square: side ``side``; pentagon: regular, circumradius
+    ``radius``; circle: radius ``radius`` as a 72-gon (5 deg chords).  Counter-clockwise.
+    """
+    if name == "zigzag":
+        x = np.linspace(0.0, cfg.zigzag_length, cfg.zigzag_legs + 1)
+        y = np.where(np.arange(cfg.zigzag_legs + 1) % 2 == 1, cfg.zigzag_width, 0.0)
+        out = np.column_stack([x, y])
+        return np.vstack([out, out[-2:0:-1]])
+    sides, radius = {"square": (4, cfg.square_side / np.sqrt(2.0)), "pentagon": (5, cfg.pentagon_radius),
+                     "circle": (72, cfg.circle_radius)}[name]
+    ang = -np.pi / 2 - np.pi / sides + 2.0 * np.pi * np.arange(sides) / sides  # bottom edge horizontal
+    ring = radius * np.column_stack([np.cos(ang), np.sin(ang)])
+    return ring - ring[0]
+
+
+def place_loop(loop: np.ndarray, start: np.ndarray, fits) -> np.ndarray | None:
+    """The loop translated to begin at ``start (2,)``, or moved the least distance that
+    makes ``fits(placed)`` true, searching outwards on a 5 m grid of shifts up to 500 m.
+    None if it fits nowhere there."""
+    r = np.arange(0.0, 500.0 + 1e-9, 5.0)
+    shifts = np.stack(np.meshgrid(np.r_[-r[:0:-1], r], np.r_[-r[:0:-1], r]), -1).reshape(-1, 2)
+    shifts = shifts[np.argsort(np.linalg.norm(shifts, axis=1), kind="stable")]
+    for shift in shifts:
+        placed = loop + start + shift
+        if fits(placed):
+            return placed
+    return None
+
+
+class Route:
+    """A manoeuvre flown at constant speed: ``position(k)`` after k steps (k >= 0)."""
+
+    def __init__(self, start: np.ndarray, loop: np.ndarray, step: float, altitude: float):
+        self.start, self.loop, self.step, self.altitude = start[:2], loop, step, altitude
+        closed = np.vstack([loop, loop[:1]])
+        self.seg = np.diff(closed, axis=0)
+        self.cum = np.r_[0.0, np.cumsum(np.linalg.norm(self.seg, axis=1))]
+        self.approach = float(np.linalg.norm(loop[0] - self.start))
+
+    def position(self, k: int) -> np.ndarray:
+        s = k * self.step
+        if s < self.approach:
+            xy = self.start + (self.loop[0] - self.start) * (s / self.approach)
+        else:
+            s = (s - self.approach) % self.cum[-1]
+            i = int(np.searchsorted(self.cum, s, side="right") - 1)
+            xy = self.loop[i] + self.seg[i] * ((s - self.cum[i]) / (self.cum[i + 1] - self.cum[i]))
+        return np.array([xy[0], xy[1], self.altitude])
+
+
+def manoeuvre_route(name: str, start: np.ndarray, cfg: ManoeuvreConfig, uav: UavConfig, world: World,
+                    mission_path) -> Route:
+    """Place manoeuvre ``name`` at (or as near as possible to) the start: inside the
+    operating region (or area), its loop and the approach leg clear of obstacles at the
+    UAV's altitude.  A loop that fits nowhere is a mission error."""
+    region = uav.region or Region2D.box(world.area_lo[:2], world.area_hi[:2])
+    h = uav.altitude
+
+    def fits(placed):
+        ring = np.column_stack([np.vstack([placed, placed[:1]]), np.full(len(placed) + 1, h)])
+        leg = np.array([[start[0], start[1], h], ring[0]])
+        pts = np.vstack([ring, leg])
+        ends = np.r_[np.arange(len(ring) - 1), len(ring)]
+        return bool(region.contains(placed).all() and not world.segment_blocked(pts[ends], pts[ends + 1]).any())
+
+    placed = place_loop(manoeuvre_loop(name, cfg), start[:2], fits)
+    if placed is None:
+        raise MissionError(mission_path, "planner.manoeuvres",
+                           f"the {name} manoeuvre fits nowhere in the operating region clear of obstacles")
+    return Route(start, placed, cfg.step, h)

@@ -73,7 +73,8 @@ class Plan:
 
 
 class Guidance:
-    """Problem (P1) for one world, dynamics and settings: built and compiled once.
+    """Problem (P1) for one world, dynamics and settings: each horizon length's model is
+    built and compiled once (lazily; ~30 ms), then re-solved with new parameters.
 
     ``plan`` is a pure function of its arguments (no state carries over between calls),
     so plans are reproducible whatever order targets or trials are solved in.
@@ -82,27 +83,51 @@ class Guidance:
     def __init__(self, world: World, dynamics: Dynamics, cfg: GuidanceConfig, solver: str = "highs"):
         if solver not in SOLVERS:
             raise ValueError(f"unknown guidance solver {solver!r}; choose from {SOLVERS}")
-        self.dynamics, self.cfg, self.solver = dynamics, cfg, solver
-        self.p1 = build_p1(world, dynamics, cfg)
-        geom = self.p1.geom
-        self.reach = Reach.build(dynamics.dt, dynamics.friction, dynamics.mass, cfg.horizon, self.p1.rho_model,
-                                 cfg.speed_max, cfg.force_max / KN, geom.area_lo, geom.area_hi)
-        self.oa = OuterApproximation(self.p1, self.reach, cfg.gap, cfg.time_limit) if solver == "highs" else None
+        self.world, self.dynamics, self.cfg, self.solver = world, dynamics, cfg, solver
+        self._models: dict[int, tuple] = {}
+        self.p1, self.reach, self.oa = self._model(cfg.horizon)
 
-    def plan(self, mean: np.ndarray, cov: np.ndarray, goal: np.ndarray, warm: Plan | None = None) -> Plan:
+    def _model(self, horizon: int):
+        """``(p1, reach, oa)`` for a horizon length (``oa`` None for SCIP)."""
+        if horizon not in self._models:
+            cfg, dyn = replace(self.cfg, horizon=horizon), self.dynamics
+            p1 = build_p1(self.world, dyn, cfg)
+            g = p1.geom
+            reach = Reach.build(dyn.dt, dyn.friction, dyn.mass, horizon, p1.rho_model, cfg.speed_max,
+                                cfg.force_max / KN, g.area_lo, g.area_hi)
+            oa = OuterApproximation(p1, reach, cfg.gap, cfg.time_limit) if self.solver == "highs" else None
+            self._models[horizon] = (p1, reach, oa)
+        return self._models[horizon]
+
+    def horizon_at(self, step: int) -> int:
+        """Horizon of the re-plan at mission step ``step`` (0 = the first plan).
+
+        ``receding``: always T.  ``shrinking``: the plan of step 0 ends at step T, and each
+        re-plan keeps that end (``T - step mod T``, at least 2); a new T-step plan starts
+        every T steps.
+        """
+        t = self.cfg.horizon
+        return t if self.cfg.horizon_mode == "receding" else max(2, t - step % t)
+
+    def plan(self, mean: np.ndarray, cov: np.ndarray, goal: np.ndarray, warm: Plan | None = None,
+             horizon: int | None = None) -> Plan:
         """Solve P1 from the belief ``N(mean (6,), cov (6, 6))`` (Eq. 8c) to ``goal (3,)``.
 
         ``warm``: the previous plan of this target (its faces and terms, shifted one step).
+        ``horizon``: the plan's length (default: the mission's T).
         """
         t0 = time.perf_counter()
+        horizon = horizon or self.cfg.horizon
+        p1, _, oa = self._model(horizon)
         x0 = np.array([mean[0], mean[1], mean[3], mean[4]])
-        z_means, _ = self.dynamics.predict_moments(mean, cov, np.zeros((self.cfg.horizon, 3)))
+        z_means, _ = self.dynamics.predict_moments(mean, cov, np.zeros((horizon, 3)))
         if np.any(np.abs(z_means[:, 2]) > GROUND_BAND_M):
             return self._failed("error", t0, f"target is not on the ground (|z| > {GROUND_BAND_M} m within the horizon)")
         if self.solver == "scip":
-            status, obj, lb, u, faces, terms, it, msg = self._solve_scip(x0, goal[:2])
+            status, obj, lb, u, faces, terms, it, msg = self._solve_scip(p1, x0, goal[:2])
         else:
-            sol = self.oa.solve(x0, goal[:2], None if warm is None or warm.faces is None else _shift_warm(warm))
+            shifted = None if warm is None or warm.faces is None else _shift_warm(warm, horizon)
+            sol = oa.solve(x0, goal[:2], shifted)
             status, obj, lb, it, msg = sol.status, sol.objective, sol.lower_bound, sol.iterations, sol.message
             u, faces, terms = (None, None, None) if sol.plan is None else (sol.plan.u, sol.plan.y, sol.plan.s)
         if u is None:
@@ -120,14 +145,13 @@ class Guidance:
         g = self.p1.geom
         return bool(np.any(np.all((mean1[:2] >= g.lo) & (mean1[:2] <= g.hi), axis=1)))
 
-    def _solve_scip(self, x0, goal):
+    def _solve_scip(self, p, x0, goal):
         """The same cvxpy model, solved by SCIP (optional extra ``pyscipopt``).
 
         SCIP runs without a gap limit: cvxpy reports SCIP's gap-limit and time-limit stops
         alike ("optimal_inaccurate"), so only a proved optimum is called "optimal" (gap 0);
         anything else is a time limit with an unknown lower bound.
         """
-        p = self.p1
         p.x0.value, p.goal.value = x0, goal
         try:
             p.problem.solve(solver=cp.SCIP, scip_params={"limits/time": self.cfg.time_limit},
@@ -146,11 +170,13 @@ class Guidance:
         return ("optimal" if status == cp.OPTIMAL else "time_limit"), obj, lb, p.u.value, y, terms, 0, "SCIP via cvxpy"
 
 
-def _shift_warm(plan: Plan) -> tuple[np.ndarray, np.ndarray]:
-    """Faces and terms of ``plan`` one step on: step tau of the new plan is step tau + 1
-    of the old one; the last step repeats."""
-    faces = np.concatenate([plan.faces[1:], plan.faces[-1:]])
-    ne = 2
-    d = plan.terms[ne:].reshape(2, -1)  # [d_x..., d_y...] in cvxpy's column-major order
-    d = np.concatenate([d[:, 1:], np.zeros((2, 1))], axis=1)
-    return faces, np.r_[plan.terms[:ne], d.reshape(-1)]
+def _shift_warm(plan: Plan, horizon: int) -> tuple[np.ndarray, np.ndarray]:
+    """Faces and terms of ``plan`` one step on, fitted to a plan of ``horizon`` steps:
+    step tau of the new plan is step tau + 1 of the old one; missing steps repeat the
+    last one (receding horizon) and surplus steps are dropped (shrinking horizon)."""
+    rows = horizon - 1
+    faces = plan.faces[1:]
+    faces = np.concatenate([faces, np.repeat(plan.faces[-1:], max(rows - len(faces), 0), axis=0)])[:rows]
+    d = plan.terms[2:].reshape(2, -1)[:, 1:]  # [d_x..., d_y...] (cvxpy's column-major order), shifted
+    d = np.concatenate([d, np.zeros((2, max(rows - d.shape[1], 0)))], axis=1)[:, :rows]
+    return faces, np.r_[plan.terms[:2], d.reshape(-1)]

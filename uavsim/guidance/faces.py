@@ -137,6 +137,11 @@ def _slack(points: np.ndarray, b: np.ndarray) -> np.ndarray:
     return (points @ FACE_NORMALS.T)[:, None, :] - b
 
 
+def inside(points: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(T-1, n) how deep each point is inside each inflated obstacle (<= 0: outside)."""
+    return -_slack(points, b).max(axis=2)
+
+
 def binding_faces(points: np.ndarray, y: np.ndarray, b: np.ndarray, tol: float = 1e-3) -> np.ndarray:
     """``(k, 3)`` indices ``(step row, obstacle, face)`` of active faces the plan touches."""
     return np.argwhere((y == 0) & (np.abs(_slack(points, b)) < tol))

@@ -1,7 +1,14 @@
-"""Exact solution of Problem (P1) by outer approximation (OA) with HiGHS.
+"""Exact solution of Problem (P1): QP branch-and-bound, then outer approximation (OA).
 
 P1's objective is ``f = sum_k w_k s_k^2`` over affine terms ``s`` (terminal error e,
-control increments d) on a mixed-binary polyhedron.  OA alternates two problems:
+control increments d) on a mixed-binary polyhedron.  Every solve:
+
+1. finds an upper bound: QPs with the faces fixed (:mod:`.qp`) for the previous plan's
+   faces, two dives from the obstacle-free optimum and a corner local search;
+2. certifies it by a small branch-and-bound over the faces the reachable set of plans
+   with ``f <= UB`` leaves undecided, each node a QP (:meth:`OuterApproximation._branch`);
+   on the paper mission this settles every warm re-plan we measured;
+3. if that tree outgrows its budget, runs OA, which alternates two problems:
 
 * **master (HiGHS MILP, lower bound).**  Each ``s_k^2`` becomes an epigraph variable
   ``t_k >= 2 a s_k - a^2`` (tangent cuts); ``sum_k w_k t_k <= f`` everywhere, so the
@@ -15,10 +22,9 @@ control increments d) on a mixed-binary polyhedron.  OA alternates two problems:
 It stops when ``(UB - LB) / max(UB, 1) <= gap`` (objective in m^2: near zero the gap is
 absolute in m^2).
 
-Speed comes from (largest effect first, measured on the paper mission):
+What makes OA fast (largest effect first, measured on the paper mission):
 
-* an upper bound before any MILP: the previous plan's faces shifted by one step, and
-  faces read off the obstacle-free optimum (:func:`.faces.face_choices`);
+* an upper bound before any MILP (step 1 above, :func:`.faces.extend_faces`);
 * the master gets the bound as a cutoff (``objective_bound``): an infeasible master
   proves optimality.  HiGHS's feasibility-jump heuristic is switched off in the master,
   because with a cutoff it can return a solution above the cutoff and a wrong dual bound
@@ -34,6 +40,8 @@ Speed comes from (largest effect first, measured on the paper mission):
 
 from __future__ import annotations
 
+import heapq
+import itertools
 import time
 from dataclasses import dataclass, replace
 
@@ -42,13 +50,14 @@ import numpy as np
 import scipy.sparse as sp
 
 from .compiled import INF, Compiled, compile_p1, new_highs, pass_model
-from .faces import Reach, binding_faces, choose_faces, extend_faces, prune, tight_big_m
+from .faces import Reach, binding_faces, choose_faces, extend_faces, inside, prune, tight_big_m
 from .model import P1
 from .qp import FixedFaceQP, QpSolution
 
 _STATUS = highspy.HighsModelStatus
 E_GRID = np.array([0.05, 0.2, 0.5, 1.0])  # initial tangent points, as fractions of |s_k|'s bound
 NEAR_WALL_STEPS = 4  # steps 2..5 keep only obstacle + clearance when the start is near a wall
+BNB_NODES = 16  # QP branch-and-bound budget before handing over to the MILP master
 
 
 @dataclass(frozen=True, eq=False)
@@ -72,8 +81,9 @@ class Solution:
 class OuterApproximation:
     """P1 compiled once; :meth:`solve` for each new start state and goal."""
 
-    def __init__(self, p1: P1, reach: Reach, gap: float, time_limit: float):
+    def __init__(self, p1: P1, reach: Reach, gap: float, time_limit: float, bnb_nodes: int = BNB_NODES):
         self.p1, self.reach, self.gap, self.time_limit = p1, reach, gap, time_limit
+        self.bnb_nodes = bnb_nodes  # QPs the branch-and-bound may solve before OA takes over
         self.c: Compiled = compile_p1(p1)
         self.qp = FixedFaceQP(self.c)
         self.offsets = p1.geom.face_offsets
@@ -215,6 +225,11 @@ class OuterApproximation:
 
     def _loop(self, best, relax, rows, goal, x0, points, b, t_end) -> Solution:
         it, lower = 0, relax.f
+        if best is not None:
+            best, proved = self._branch(rows, goal, x0, best, relax, b, points, t_end)
+            if proved:
+                tol = self.gap * max(best.f, 1.0)
+                return self._finish("optimal", best, max(lower, best.f - tol * (1 - 1e-9)), 0)
         tried = [] if best is None else [best.y]  # face choices evaluated by the QP
         dead = []  # face choices whose QP is infeasible: excluded by no-good cuts
         while True:
@@ -256,6 +271,50 @@ class OuterApproximation:
             points.append(inc.s)
             if best is None or inc.f < best.f:
                 best = inc
+
+    def _branch(self, rows, goal, x0, best, relax, b, points, t_end):
+        """Certify (or improve) the incumbent by a small exact branch-and-bound.
+
+        Binaries the reachable set of plans with ``f <= UB`` does not decide are left
+        out; a node's QP switches on only the faces branched so far, so its optimum bounds
+        every completion from below.  The deepest violated (step, obstacle) pair is
+        branched on, one child per reachable face; a violation-free node is a plan.  When
+        the open nodes all bound at or above the cutoff, the incumbent is optimal within
+        the gap.  Cheap when few pairs are undecided (the usual warm re-plan, where the
+        HiGHS master would spend ~0.2 s in root work); gives up after ``bnb_nodes`` QPs.
+        Returns ``(best, proved)``.
+        """
+        lo, hi = rows
+        bounds = prune(*self.reach.face_bounds(x0, goal, best.f, (relax.x[2:, :2], relax.f)), b)
+        if bounds is None:
+            return best, False
+        y_lo, y_hi = bounds
+        cutoff = best.f - self.gap * max(best.f, 1.0) * (1 - 1e-9)
+        ticket = itertools.count()  # heap tie-breaker: nodes never compare their arrays
+        heap, solved = [(relax.f, next(ticket), np.where(y_hi == 0, 0.0, 1.0))], 0
+        while heap:
+            bound, _, y = heapq.heappop(heap)
+            if bound >= cutoff:
+                return best, True  # best-first: every open node bounds at or above the cutoff
+            if solved >= self.bnb_nodes or time.perf_counter() > t_end:
+                return best, False
+            sol = self.qp.solve(lo, hi, y)
+            solved += 1
+            if sol is None or sol.f >= cutoff:
+                continue
+            points.append(sol.s)
+            depth = np.where((y == 1).all(axis=2), inside(sol.x[2:, :2], b), -np.inf)  # open pairs only
+            if not np.any(depth > 1e-7):  # violation-free: a better plan
+                full = choose_faces(sol.x[2:, :2], b, np.where(y == 0, 0.0, y_lo), np.where(y == 0, 0.0, y_hi))
+                best = replace(sol, y=full)
+                cutoff = best.f - self.gap * max(best.f, 1.0) * (1 - 1e-9)
+                continue
+            r, j = np.unravel_index(np.argmax(depth), depth.shape)
+            for i in np.flatnonzero(y_lo[r, j] == 0):
+                child = y.copy()
+                child[r, j, i] = 0.0
+                heapq.heappush(heap, (sol.f, next(ticket), child))
+        return best, True
 
     def _master(self, rows, goal, x0, ub, relax, points, dead, b, time_limit, cutoff, best) -> highspy.Highs | None:
         """The master MILP for the current upper bound: pruned binaries, per-step big-M,

@@ -1,0 +1,149 @@
+"""Closed loop (004 Sec. V-VI): determinism, seeding, manoeuvres, the commands."""
+
+import json
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from uavsim.campaign import run_campaign, run_trial, trial_seeds
+from uavsim.cli import main
+from uavsim.config import load_mission
+from uavsim.uav import Route, manoeuvre_loop, manoeuvre_route
+
+from .conftest import PAPER, ROOT
+
+CONSTRAINED = ROOT / "missions" / "paper_constrained.toml"
+
+
+def small(path=PAPER, steps=4, trials=2, particles=400, **kw):
+    m = load_mission(path)
+    return replace(m, steps=steps, trials=trials, filter=replace(m.filter, particles=particles), **kw)
+
+
+def strip(summary):
+    return {k: v for k, v in summary.items() if k not in ("timing", "wall_seconds")}
+
+
+def test_same_seed_same_summary():
+    m = small()
+    assert strip(run_campaign(m, "optimized")) == strip(run_campaign(m, "optimized"))
+    other = strip(run_campaign(replace(m, seed=m.seed + 1), "optimized"))
+    assert other["rmse"] != strip(run_campaign(m, "optimized"))["rmse"]
+
+
+def test_trial_k_does_not_depend_on_the_campaign_size():
+    m = small()
+    a = run_trial(m, "optimized", 1, trial_seeds(m.seed, 2)[1])
+    b = run_trial(m, "optimized", 1, trial_seeds(m.seed, 5)[1])
+    np.testing.assert_array_equal(a.err2, b.err2)
+
+
+def test_planners_share_truth_and_prior_particles():
+    """Common random numbers: trial k has the same truth whichever planner flies."""
+    m = small(truth="stochastic")
+    seen = {}
+    for planner in ("optimized", "circle"):
+        truths = []
+        run_trial(m, planner, 0, trial_seeds(m.seed, 1)[0], on_step=lambda info: truths.append(info.truth))
+        seen[planner] = np.array(truths)
+    np.testing.assert_array_equal(seen["optimized"][0], seen["circle"][0])  # the drawn true start
+    assert seen["optimized"].shape == (m.steps + 1, 4, 6)
+
+
+def test_manoeuvre_loops_by_hand():
+    cfg = load_mission(CONSTRAINED).planner.manoeuvres
+    sq = manoeuvre_loop("square", cfg)
+    np.testing.assert_allclose(np.linalg.norm(np.diff(np.vstack([sq, sq[:1]]), axis=0), axis=1), cfg.square_side)
+    pent = manoeuvre_loop("pentagon", cfg)
+    side = 2 * cfg.pentagon_radius * np.sin(np.pi / 5)
+    np.testing.assert_allclose(np.linalg.norm(np.diff(np.vstack([pent, pent[:1]]), axis=0), axis=1), side)
+    circ = manoeuvre_loop("circle", cfg)
+    np.testing.assert_allclose(np.linalg.norm(circ - circ.mean(0), axis=1), cfg.circle_radius)
+    zz = manoeuvre_loop("zigzag", cfg)
+    assert zz[:, 0].max() == cfg.zigzag_length and zz[:, 1].max() == cfg.zigzag_width
+    np.testing.assert_array_equal(sq[0], [0, 0])
+
+
+@pytest.mark.parametrize("name", ["zigzag", "square", "pentagon", "circle"])
+def test_manoeuvres_stay_in_the_region_clear_of_obstacles(name):
+    m = load_mission(CONSTRAINED)
+    rng = np.random.default_rng(0)
+    for start in rng.uniform([0, 0], [1000, 220], (5, 2)):
+        route = manoeuvre_route(name, np.r_[start, 40.0], m.planner.manoeuvres, m.uav, m.world, m.path)
+        pts = np.array([route.position(k) for k in range(120)])
+        assert m.uav.region.contains(pts).all() and not m.world.in_obstacle(pts).any()
+        assert not m.world.segment_blocked(pts[:-1], pts[1:]).any()
+        steps = np.linalg.norm(np.diff(pts[:, :2], axis=0), axis=1)
+        assert np.all(steps <= m.planner.manoeuvres.step + 1e-9)
+
+
+def test_route_speed_is_the_step_length():
+    route = Route(np.array([0.0, 0.0, 40.0]), np.array([[0.0, 0.0], [100.0, 0.0], [100.0, 100.0], [0.0, 100.0]]),
+                  20.0, 40.0)
+    np.testing.assert_allclose(route.position(3), [60, 0, 40])
+    np.testing.assert_allclose(route.position(7), [100, 40, 40])
+    np.testing.assert_allclose(route.position(20), [0, 0, 40])  # perimeter 400 m = 20 steps
+
+
+def test_fixed_sensors_observe_from_three_places():
+    m = small(steps=2)
+    infos = []
+    run_trial(m, "fixed-sensors", 0, trial_seeds(m.seed, 1)[0], on_step=infos.append)
+    assert infos[1].observers.shape == (3, 3) and len(infos[1].scans) == 3
+    assert not any(s.valid[~s.from_target].any() for s in infos[1].scans)  # no clutter
+    np.testing.assert_array_equal(infos[1].observers[:, :2], [[150, 200], [800, 200], [500, 900]])
+
+
+def test_optimized_moves_are_grid_moves():
+    m = small(steps=3)
+    infos = []
+    run_trial(m, "optimized", 0, trial_seeds(m.seed, 1)[0], on_step=infos.append)
+    for a, b in zip(infos[:-1], infos[1:]):
+        d = b.observers[0, :2] - a.observers[0, :2]
+        r = np.linalg.norm(d)
+        assert np.isclose(r % m.uav.step, 0, atol=1e-9) or np.isclose(r % m.uav.step, m.uav.step, atol=1e-9)
+        assert np.isfinite(b.scores[np.argmin(b.scores)])
+
+
+def write_small_mission(tmp_path):
+    text = PAPER.read_text().replace("particles = 5000", "particles = 300")
+    text = text.replace('world = "../worlds/paper.toml"', f'world = "{ROOT / "worlds" / "paper.toml"}"')
+    path = tmp_path / "small.toml"
+    path.write_text(text)
+    return path
+
+
+def test_run_writes_summary(tmp_path, capsys):
+    mission = write_small_mission(tmp_path)
+    out = tmp_path / "out"
+    assert main(["run", str(mission), "--trials", "2", "--steps", "3", "--seed", "5", "--out", str(out), "--quiet"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    for key in ("mission", "planner", "trials", "steps", "seed", "rmse", "rmse_per_target", "time_avg_rmse", "timing"):
+        assert key in s
+    assert (s["trials"], s["steps"], s["seed"], s["planner"]) == (2, 3, 5, "optimized")
+    assert len(s["rmse"]) == 3 and np.array(s["rmse_per_target"]).shape == (4, 3)
+    assert set(s["timing"]) >= {"guidance", "filter", "planner", "total"}
+    assert "time-avg RMSE" in capsys.readouterr().out
+
+
+def test_compare_writes_json_and_png(tmp_path):
+    mission = write_small_mission(tmp_path)
+    out = tmp_path / "cmp"
+    assert main(["compare", str(mission), "--planners", "optimized,fixed-sensors", "--trials", "1", "--steps", "2",
+                 "--out", str(out), "--quiet"]) == 0
+    data = json.loads((out / "compare.json").read_text())
+    assert list(data) == ["optimized", "fixed-sensors"]
+    assert (out / "rmse.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("argv, fragment", [
+    (["compare", "M", "--planners", "optimized,spiral", "--out", "x"], "unknown spiral"),
+    (["run", "M", "--trials", "0"], "--trials must be at least 1"),
+    (["run", "M", "--clutter-rate", "-1"], "--clutter-rate must be"),
+])
+def test_bad_command_lines_exit_2(tmp_path, capsys, argv, fragment):
+    argv = [str(write_small_mission(tmp_path)) if a == "M" else a for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and fragment in err and len(err.splitlines()) == 1

@@ -1,0 +1,200 @@
+"""The closed loop of 004_22b452551a772073.txt Sec. V-VI, one trial at a time.
+
+Each step t -> t+1:
+
+1. **guidance**: every target's P1 is re-solved from its posterior ``N(mu_t, Sigma_t)``
+   (Eq. 8c, rolling horizon), warm-started from its previous plan; a failed re-plan
+   falls back to the previous plan shifted by one step (an event is logged);
+2. **filter predict** (Eq. 9a) with each plan's first control;
+3. **UAV**: ``optimized`` takes the admissible grid move of least summed predicted
+   covariance trace (Eq. 12-13); a manoeuvre flies its loop; ``fixed-sensors`` has three
+   static sensors instead of a UAV;
+4. **truth**: ``planned`` (the paper): targets follow the noise-free plan computed from
+   the prior means at t = 1 (re-planned noise-free from its end if a mission outlasts the
+   horizon); ``stochastic``: targets are re-planned on their true states and move by
+   Eq. (1) with process noise;
+5. **sense and update** (Eq. 4, 9b-11), then systematic resampling when the ESS is low.
+
+Randomness: a trial gets one ``SeedSequence``; it spawns separate streams for the truth,
+the sensor, the filter and the UAV start, so trial k sees the same truth and the same
+prior particles whichever planner runs (common random numbers across planners).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .config import Mission
+from .filtering import ParticleFilter, scan_loglik
+from .guidance import Guidance, Plan
+from .planning import decide
+from .sensing import Scan, observe
+from .uav import MANOEUVRES, Route, admissible, candidates, manoeuvre_route
+
+PLANNERS = ("optimized", *MANOEUVRES, "fixed-sensors")
+STAGES = ("guidance", "filter", "planner", "truth", "total")
+
+
+@dataclass
+class StepInfo:
+    """What one step produced (for recording and metrics).  Shapes: M targets, N particles."""
+
+    t: int
+    truth: np.ndarray  # (M, 6)
+    mean: np.ndarray  # (M, 6) posterior means
+    cov: np.ndarray  # (M, 6, 6)
+    observers: np.ndarray  # (S, 3) sensor positions this step (the UAV, or the fixed sensors)
+    scans: list[Scan]
+    plans: list[Plan]
+    candidates: np.ndarray | None  # (C, 3) the UAV's grid moves (optimized planner)
+    scores: np.ndarray | None  # (C,) summed pseudo-posterior traces (inf: not admissible)
+    seconds: dict[str, float]
+    events: list[str] = field(default_factory=list)
+
+
+class Simulation:
+    """One trial of the closed loop: ``reset(seed)``, then ``step()`` until done.
+
+    Parameters
+    ----------
+    mission : validated mission; planner : one of :data:`PLANNERS`;
+    guidance : a shared :class:`Guidance` (it is stateless; building one costs ~30 ms).
+    """
+
+    def __init__(self, mission: Mission, planner: str, guidance: Guidance | None = None):
+        if planner not in PLANNERS:
+            raise ValueError(f"unknown planner {planner!r}; choose from {', '.join(PLANNERS)}")
+        self.m, self.planner = mission, planner
+        self.guidance = guidance or Guidance(mission.world, mission.dynamics, mission.guidance)
+        self.goals = np.array([mission.world.goals[t.goal].centroid for t in mission.targets])
+
+    # ------------------------------------------------------------------ reset
+    def reset(self, seed: np.random.SeedSequence | int) -> StepInfo:
+        ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+        truth_ss, sensor_ss, filter_ss, uav_ss = ss.spawn(4)
+        self.rng_truth, self.rng_sensor, self.rng_filter = map(np.random.default_rng, (truth_ss, sensor_ss, filter_ss))
+        m = self.m
+        means0 = np.array([t.mean0 for t in m.targets])
+        covs0 = np.array([t.cov0 for t in m.targets])
+        self.pf = ParticleFilter.from_priors(self.rng_filter, means0, covs0, m.filter.particles)
+        self.t = 0
+        self.plans: list[Plan | None] = [None] * len(m.targets)
+        self.truth_plans: list[Plan | None] = [None] * len(m.targets)
+        if m.truth == "planned":
+            self.truth = means0.copy()
+            self.truth_path = self._noise_free_paths(means0)
+        else:
+            chol = np.linalg.cholesky(covs0)
+            self.truth = means0 + np.einsum("mij,mj->mi", chol, self.rng_truth.standard_normal(means0.shape))
+        self.uav = self._start(np.random.default_rng(uav_ss))
+        self.route = manoeuvre_route(self.planner, self.uav, m.planner.manoeuvres, m.uav, m.world, m.path) \
+            if self.planner in MANOEUVRES else None
+        mean, cov = self.pf.moments()
+        return StepInfo(0, self.truth.copy(), mean, cov, self._observers(), [], [], None, None, {})
+
+    def _start(self, rng: np.random.Generator) -> np.ndarray:
+        """The UAV's start: the mission's, or uniform in the region (area) at altitude h,
+        outside obstacles (rejection sampling)."""
+        uav, world = self.m.uav, self.m.world
+        if not uav.random_start or self.planner == "fixed-sensors":
+            return uav.start.copy()
+        lo, hi = world.area_lo[:2], world.area_hi[:2]
+        if uav.region is not None:
+            lo, hi = np.maximum(lo, uav.region.vertices.min(0)), np.minimum(hi, uav.region.vertices.max(0))
+        while True:
+            p = np.array([*rng.uniform(lo, hi), uav.altitude])
+            if (uav.region is None or uav.region.contains(p)) and not world.in_obstacle(p):
+                return p
+
+    def _noise_free_paths(self, starts: np.ndarray) -> list[np.ndarray]:
+        """Per target, the noise-free plan from ``starts`` as a (T, 6) path of states."""
+        paths = []
+        for j, x in enumerate(starts):
+            plan = self.guidance.plan(x, np.zeros((6, 6)), self.goals[j])
+            if not plan.ok:
+                raise RuntimeError(f"target {self.m.targets[j].name}: no noise-free plan from its prior mean "
+                                   f"({plan.status}: {plan.message})")
+            paths.append(plan.means)
+        return paths
+
+    def _observers(self) -> np.ndarray:
+        if self.planner == "fixed-sensors":
+            return self.m.planner.fixed_sensors.positions
+        return self.uav[None, :]
+
+    # ------------------------------------------------------------------ step
+    def step(self) -> StepInfo:
+        m, sec, events = self.m, {}, []
+        t0 = time.perf_counter()
+        mean, cov = self.pf.moments()
+        self.plans = [self._replan(j, mean[j], cov[j], self.plans[j], events, "estimate") for j in range(len(mean))]
+        sec["guidance"] = time.perf_counter() - t0
+
+        t1 = time.perf_counter()
+        controls = np.array([p.controls[0] for p in self.plans])
+        dyn = m.dynamics
+        self.pf.predict(self.rng_filter, dyn.a, dyn.b, dyn.q_chol, controls)
+        sec["filter"] = time.perf_counter() - t1
+
+        t2 = time.perf_counter()
+        cands, scores = self._move_uav()
+        sec["planner"] = time.perf_counter() - t2
+
+        t3 = time.perf_counter()
+        self._move_truth(events)
+        sec["truth"] = time.perf_counter() - t3
+
+        t4 = time.perf_counter()
+        observers = self._observers()
+        sensor = m.planner.fixed_sensors.sensor if self.planner == "fixed-sensors" else m.sensor
+        scans = [observe(self.rng_sensor, sensor, self.truth[:, :3], o) for o in observers]
+        loglik = sum(scan_loglik(s, self.pf.particles, o, sensor) for s, o in zip(scans, observers))
+        degenerate = self.pf.update(loglik)
+        for j in np.flatnonzero(degenerate):
+            events.append(f"{m.targets[j].name}: degenerate update skipped (no particle explains the bearings)")
+        resampled = self.pf.resample(self.rng_filter, m.filter.resample_threshold, m.filter.roughening)
+        if resampled.any():
+            events.append("resampled " + ", ".join(m.targets[j].name for j in np.flatnonzero(resampled)))
+        mean, cov = self.pf.moments()
+        sec["filter"] += time.perf_counter() - t4
+        sec["total"] = time.perf_counter() - t0
+        self.t += 1
+        return StepInfo(self.t, self.truth.copy(), mean, cov, observers, scans, self.plans, cands, scores, sec, events)
+
+    def _replan(self, j: int, mean, cov, previous: Plan | None, events: list[str], who: str) -> Plan:
+        plan = self.guidance.plan(mean, cov, self.goals[j], warm=previous, horizon=self.guidance.horizon_at(self.t))
+        if plan.ok:
+            return plan
+        name = self.m.targets[j].name
+        if previous is None:
+            raise RuntimeError(f"{name}: guidance failed at the first step ({plan.status}: {plan.message})")
+        events.append(f"{name} ({who}): re-plan {plan.status} ({plan.message}); flying the previous plan")
+        return previous.shifted(self.m.dynamics, mean, cov, plan.message)
+
+    def _move_uav(self) -> tuple[np.ndarray | None, np.ndarray | None]:
+        if self.planner == "optimized":
+            cands = candidates(self.uav, self.m.uav)
+            ok = admissible(self.uav, cands, self.m.world, self.m.uav)
+            best, scores = decide(cands, ok, self.pf.particles, self.pf.weights, self.m.sensor.sigma)
+            if np.isfinite(scores[best]):
+                self.uav = cands[best]
+            return cands, scores
+        if self.route is not None:
+            self.uav = self.route.position(self.t + 1)
+        return None, None
+
+    def _move_truth(self, events: list[str]) -> None:
+        if self.m.truth == "planned":
+            k = self.t % len(self.truth_path[0])
+            if self.t and k == 0:  # the mission outlasts the horizon: plan on from the end
+                self.truth_path = self._noise_free_paths(self.truth)
+            self.truth = np.array([path[k] for path in self.truth_path])
+            return
+        zero = np.zeros((6, 6))
+        self.truth_plans = [self._replan(j, x, zero, self.truth_plans[j], events, "truth")
+                            for j, x in enumerate(self.truth)]
+        controls = np.array([p.controls[0] for p in self.truth_plans])
+        self.truth = self.m.dynamics.step(self.truth, controls, rng=self.rng_truth)
