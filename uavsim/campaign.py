@@ -90,13 +90,25 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
     }
 
 
-def run_campaign(mission: Mission, planner: str, progress=None) -> dict:
-    """All trials of ``mission`` with ``planner``, in this process; returns the summary."""
+def run_campaign(mission: Mission, planner: str, progress=None, record=None) -> dict:
+    """All trials of ``mission`` with ``planner``, in this process; returns the summary.
+
+    ``record = (path, trial, particles)`` writes that trial to a rerun file.
+    """
     t0 = time.perf_counter()
     guidance = Guidance(mission.world, mission.dynamics, mission.guidance)
     results = []
     for k, seed in enumerate(trial_seeds(mission.seed, mission.trials)):
-        results.append(run_trial(mission, planner, k, seed, guidance))
+        recorder = None
+        if record is not None and record[1] == k:
+            from .recording import Recorder
+
+            recorder = Recorder(record[0], mission, planner, k, particles=record[2])
+        try:
+            results.append(run_trial(mission, planner, k, seed, guidance, on_step=recorder))
+        finally:
+            if recorder is not None:
+                recorder.close()
         if progress:
             progress(k + 1, mission.trials)
     return summarize(mission, planner, results, time.perf_counter() - t0)

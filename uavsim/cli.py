@@ -128,10 +128,17 @@ def cmd_run(args: argparse.Namespace) -> int:
     mission = _campaign_mission(args)
     planner = args.planner or mission.planner.name
     out = Path(args.out or f"runs/{mission.path.stem}-{planner}")
-    summary = run_campaign(mission, planner, progress=None if args.quiet else _progress)
+    record = None
+    if args.record:
+        if not 0 <= args.record_trial < mission.trials:
+            raise UsageError(f"--record-trial must be between 0 and {mission.trials - 1}")
+        if args.record_particles < 0:
+            raise UsageError("--record-particles must be >= 0")
+        record = (Path(args.record), args.record_trial, args.record_particles)
+    summary = run_campaign(mission, planner, progress=None if args.quiet else _progress, record=record)
     _write_json(out / "summary.json", summary)
     _print_summary(summary)
-    print(f"wrote {out / 'summary.json'}")
+    print(f"wrote {out / 'summary.json'}" + (f" and {args.record} (open it with: rerun {args.record})" if record else ""))
     return 0
 
 
@@ -186,6 +193,10 @@ def build_parser() -> argparse.ArgumentParser:
     _campaign_args(p)
     p.add_argument("--planner", choices=PLANNERS, help="UAV planner (default: the mission's)")
     p.add_argument("--out", help="output folder (default runs/<mission>-<planner>)")
+    p.add_argument("--record", metavar="FILE.rrd", help="write one trial's 3D scene as a rerun recording")
+    p.add_argument("--record-trial", type=int, default=0, metavar="K", help="which trial to record (default 0)")
+    p.add_argument("--record-particles", type=int, default=200, metavar="N",
+                   help="particles drawn per target (default 200; 0 draws none)")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("compare", help="run several planners; writes DIR/compare.json and DIR/rmse.png")

@@ -53,6 +53,7 @@ class StepInfo:
     scores: np.ndarray | None  # (C,) summed pseudo-posterior traces (inf: not admissible)
     seconds: dict[str, float]
     events: list[str] = field(default_factory=list)
+    particles: np.ndarray | None = None  # (M, N, 6) posterior particles (a copy)
 
 
 class Simulation:
@@ -93,7 +94,8 @@ class Simulation:
         self.route = manoeuvre_route(self.planner, self.uav, m.planner.manoeuvres, m.uav, m.world, m.path) \
             if self.planner in MANOEUVRES else None
         mean, cov = self.pf.moments()
-        return StepInfo(0, self.truth.copy(), mean, cov, self._observers(), [], [], None, None, {})
+        return StepInfo(0, self.truth.copy(), mean, cov, self._observers(), [], [], None, None, {},
+                        particles=self.pf.particles.copy())
 
     def _start(self, rng: np.random.Generator) -> np.ndarray:
         """The UAV's start: the mission's, or uniform in the region (area) at altitude h,
@@ -162,7 +164,8 @@ class Simulation:
         sec["filter"] += time.perf_counter() - t4
         sec["total"] = time.perf_counter() - t0
         self.t += 1
-        return StepInfo(self.t, self.truth.copy(), mean, cov, observers, scans, self.plans, cands, scores, sec, events)
+        return StepInfo(self.t, self.truth.copy(), mean, cov, observers, scans, self.plans, cands, scores, sec, events,
+                        self.pf.particles.copy())
 
     def _replan(self, j: int, mean, cov, previous: Plan | None, events: list[str], who: str) -> Plan:
         plan = self.guidance.plan(mean, cov, self.goals[j], warm=previous, horizon=self.guidance.horizon_at(self.t))
