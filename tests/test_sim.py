@@ -140,7 +140,7 @@ def test_compare_writes_json_and_png(tmp_path):
 @pytest.mark.parametrize("argv, fragment", [
     (["compare", "M", "--planners", "optimized,spiral", "--out", "x"], "unknown spiral"),
     (["run", "M", "--trials", "0"], "--trials must be at least 1"),
-    (["run", "M", "--clutter-rate", "-1"], "--clutter-rate must be"),
+    (["run", "M", "--clutter-rate", "-1"], "sensor.clutter_rate: must be >= 0, got -1.0"),
 ])
 def test_bad_command_lines_exit_2(tmp_path, capsys, argv, fragment):
     argv = [str(write_small_mission(tmp_path)) if a == "M" else a for a in argv]

@@ -1,22 +1,43 @@
-"""Monte-Carlo campaigns: trials, their seeds, and the metrics of Sec. VI-B.
+"""Monte-Carlo campaigns: trials, their seeds, where they run, what is kept, the metrics.
 
-Trial k of a campaign with seed S runs on ``SeedSequence(S).spawn(trials)[k]``, so its
-result does not depend on how many trials run, in which order, or where.
-
-RMSE (Sec. VI-B): at step t, ``eps_t = sqrt(mean_n |x^pos_hat_t(n) - x^pos_t(n)|^2)`` over
-the N trials, with (x, y) positions; ``rmse`` averages it over targets.
+* **Seeds.** Trial k of a campaign with seed S runs on ``SeedSequence(S).spawn(n)[k]``
+  (the k-th child does not depend on n), so its result does not depend on how many
+  trials run, in which order, or where.  BLAS runs single-threaded inside every trial,
+  so the arithmetic is the same in this process, a local worker or a Dask worker:
+  summaries are bit-identical for any number of workers (their ``timing`` and
+  ``wall_seconds`` are measurements, not results).
+* **Where.** In this process (``workers=1``), a local process pool, or a Dask
+  distributed cluster through its ``concurrent.futures`` executor.
+* **What is kept.** With an output folder, each finished trial is written to
+  ``DIR/trials/trial-KKKKK.npz`` at once, atomically (temporary file, fsync, rename),
+  and the summary is computed from those files.  ``resume`` runs only the trials without
+  a file, after checking ``DIR/campaign.json`` describes the same campaign.
+* **Metrics (Sec. VI-B).** At step t, ``eps_t = sqrt(mean_n |x^pos_hat_t(n) - x^pos_t(n)|^2)``
+  over the trials, (x, y) positions; ``rmse`` averages it over the targets.
 """
 
 from __future__ import annotations
 
+import hashlib
+import io
+import json
+import os
 import time
-from dataclasses import dataclass, replace
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from dataclasses import asdict, dataclass, replace
+from multiprocessing import get_context
+from pathlib import Path
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from .config import Mission
 from .guidance import Guidance
 from .sim import STAGES, Simulation
+
+
+class CampaignError(Exception):
+    """A campaign folder or request that cannot be used (reported as a usage error)."""
 
 
 @dataclass(frozen=True)
@@ -32,37 +53,190 @@ class TrialResult:
     events: tuple[str, ...]
 
 
-def with_overrides(mission: Mission, steps=None, trials=None, seed=None, clutter_rate=None) -> Mission:
-    """The mission with command-line overrides applied (None keeps the file's value)."""
-    m = mission
-    if clutter_rate is not None:
-        m = replace(m, sensor=replace(m.sensor, clutter_rate=clutter_rate))
-    return replace(m, steps=steps or m.steps, trials=trials or m.trials, seed=m.seed if seed is None else seed)
+def with_overrides(mission: Mission, steps=None, trials=None, seed=None) -> Mission:
+    """The mission with the campaign's command-line settings (None keeps the file's)."""
+    return replace(mission, steps=steps or mission.steps, trials=trials or mission.trials,
+                   seed=mission.seed if seed is None else seed)
 
 
 def trial_seeds(seed: int, trials: int) -> list[np.random.SeedSequence]:
     return np.random.SeedSequence(seed).spawn(trials)
 
 
+# --------------------------------------------------------------------------- one trial
 def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSequence,
               guidance: Guidance | None = None, on_step=None) -> TrialResult:
-    """Run one trial; ``on_step(info)`` sees every step (recording)."""
-    sim = Simulation(mission, planner, guidance)
-    info = sim.reset(seed)
-    if on_step:
-        on_step(info)
-    err2, trace, secs, statuses, events = [], [], [], {}, []
-    for _ in range(mission.steps):
-        info = sim.step()
+    """Run one trial (BLAS single-threaded); ``on_step(info)`` sees every step."""
+    with threadpool_limits(limits=1, user_api="blas"):
+        sim = Simulation(mission, planner, guidance)
+        info = sim.reset(seed)
         if on_step:
             on_step(info)
-        err2.append(((info.mean[:, :2] - info.truth[:, :2]) ** 2).sum(axis=1))
-        trace.append(np.trace(info.cov, axis1=1, axis2=2))
-        secs.append([info.seconds[k] for k in STAGES])
-        for p in info.plans:
-            statuses[p.status] = statuses.get(p.status, 0) + 1
-        events += [f"step {info.t}: {e}" for e in info.events if not e.startswith("resampled")]
+        err2, trace, secs, statuses, events = [], [], [], {}, []
+        for _ in range(mission.steps):
+            info = sim.step()
+            if on_step:
+                on_step(info)
+            err2.append(((info.mean[:, :2] - info.truth[:, :2]) ** 2).sum(axis=1))
+            trace.append(np.trace(info.cov, axis1=1, axis2=2))
+            secs.append([info.seconds[k] for k in STAGES])
+            for p in info.plans:
+                statuses[p.status] = statuses.get(p.status, 0) + 1
+            events += [f"step {info.t}: {e}" for e in info.events if not e.startswith("resampled")]
     return TrialResult(index, np.array(err2), np.array(trace), np.array(secs), statuses, tuple(events))
+
+
+_GUIDANCE: dict[str, Guidance] = {}  # per worker process: build each mission's models once
+
+
+def _trial_task(mission: Mission, planner: str, index: int, seed: np.random.SeedSequence) -> TrialResult:
+    """What a worker runs: one trial, reusing this process's guidance for the mission."""
+    key = fingerprint(mission)
+    if key not in _GUIDANCE:
+        _GUIDANCE[key] = Guidance(mission.world, mission.dynamics, mission.guidance)
+    return run_trial(mission, planner, index, seed, _GUIDANCE[key])
+
+
+# --------------------------------------------------------------------------- trial files
+def fingerprint(mission: Mission) -> str:
+    """SHA-256 of everything that determines a trial's result (not the trial count,
+    which does not change trial k, nor where the file lives)."""
+    data = asdict(replace(mission, trials=0, path=Path("."), world_path=Path(".")))
+
+    def plain(o):
+        return o.tolist() if isinstance(o, np.ndarray) else str(o)
+
+    return hashlib.sha256(json.dumps(data, default=plain, sort_keys=True).encode()).hexdigest()
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "wb") as fh:
+        fh.write(data)
+        fh.flush()
+        os.fsync(fh.fileno())
+    os.replace(tmp, path)
+    fd = os.open(path.parent, os.O_RDONLY)
+    try:
+        os.fsync(fd)  # the rename itself survives a crash
+    finally:
+        os.close(fd)
+
+
+def save_trial(folder: Path, r: TrialResult) -> None:
+    buf = io.BytesIO()
+    np.savez(buf, index=r.index, err2=r.err2, trace=r.trace, seconds=r.seconds,
+             meta=np.array(json.dumps({"statuses": r.statuses, "events": list(r.events)})))
+    _atomic_write(folder / f"trial-{r.index:05d}.npz", buf.getvalue())
+
+
+def load_trials(folder: Path, indices: range) -> dict[int, TrialResult]:
+    """The finished trials among ``indices`` (files of other campaigns' sizes are kept)."""
+    out = {}
+    for k in indices:
+        path = folder / f"trial-{k:05d}.npz"
+        if path.exists():
+            with np.load(path) as z:
+                meta = json.loads(str(z["meta"]))
+                out[k] = TrialResult(int(z["index"]), z["err2"], z["trace"], z["seconds"], meta["statuses"],
+                                     tuple(meta["events"]))
+    return out
+
+
+def _prepare_folder(out: Path, mission: Mission, planner: str, resume: bool) -> Path:
+    """Create or check ``out``; returns its trials folder."""
+    trials = out / "trials"
+    manifest = {"mission": str(mission.path), "planner": planner, "steps": mission.steps, "seed": mission.seed,
+                "fingerprint": fingerprint(mission)}
+    path = out / "campaign.json"
+    if path.exists():
+        old = json.loads(path.read_text())
+        if not resume:
+            n = len(list(trials.glob("trial-*.npz")))
+            raise CampaignError(f"{out} already holds a campaign ({n} trials done): pass --resume to continue it, "
+                                "or choose another --out")
+        if any(old.get(k) != v for k, v in manifest.items() if k != "mission"):
+            raise CampaignError(f"{out} holds a different campaign ({old.get('planner')}, seed {old.get('seed')}, "
+                                f"{old.get('steps')} steps, mission {old.get('mission')}): use another --out")
+    trials.mkdir(parents=True, exist_ok=True)
+    for stale in trials.glob(".trial-*.tmp"):  # a writer killed before its rename
+        stale.unlink()
+    _atomic_write(path, json.dumps(manifest, indent=1).encode())
+    return trials
+
+
+# --------------------------------------------------------------------------- the campaign
+def _executor(workers: int, scheduler: str | None):
+    """A ``concurrent.futures`` executor and a closer, or None to run in this process."""
+    if scheduler:
+        try:
+            from distributed import Client
+        except ImportError:
+            raise CampaignError("--scheduler needs Dask: pip install 'uavsim[dask]'") from None
+        client = Client(scheduler)
+        return client.get_executor(), client.close
+    if workers > 1:
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
+        return pool, lambda: pool.shutdown(cancel_futures=True)
+    return None, lambda: None
+
+
+def run_campaign(mission: Mission, planner: str, out: Path | None = None, workers: int = 1,
+                 scheduler: str | None = None, resume: bool = False, progress=None, record=None) -> dict:
+    """All trials of ``mission`` with ``planner``; returns the summary.
+
+    ``out``: keep every finished trial in ``out/trials`` (see module docstring);
+    ``workers``: local processes (1 runs here); ``scheduler``: a Dask scheduler address;
+    ``progress``: a :class:`uavsim.progress.Progress`-like object (``start``, ``advance``,
+    ``close``); ``record = (path, trial, particles)``: write that trial to a rerun file
+    (it runs in this process).
+    """
+    t0 = time.perf_counter()
+    seeds = trial_seeds(mission.seed, mission.trials)
+    folder = _prepare_folder(Path(out), mission, planner, resume) if out is not None else None
+    results = load_trials(folder, range(mission.trials)) if folder is not None else {}
+    todo = [k for k in range(mission.trials) if k not in results]
+    if progress:
+        progress.start(mission.trials, len(results))
+
+    def finished(r: TrialResult) -> None:
+        results[r.index] = r
+        if folder is not None:
+            save_trial(folder, r)
+        if progress:
+            progress.advance()
+
+    if record is not None:
+        finished(_recorded_trial(mission, planner, seeds, record))
+        todo = [k for k in todo if k != record[1]]
+    executor, close = _executor(min(workers, max(len(todo), 1)), scheduler) if todo else (None, lambda: None)
+    try:
+        if executor is None:
+            guidance = Guidance(mission.world, mission.dynamics, mission.guidance) if todo else None
+            for k in todo:
+                finished(run_trial(mission, planner, k, seeds[k], guidance))
+        else:
+            futures: list[Future] = [executor.submit(_trial_task, mission, planner, k, seeds[k]) for k in todo]
+            for future in as_completed(futures):
+                finished(future.result())
+    finally:
+        close()
+        if progress:
+            progress.close()
+    if folder is not None:  # the summary comes from what is on disk
+        results = load_trials(folder, range(mission.trials))
+    return summarize(mission, planner, list(results.values()), time.perf_counter() - t0)
+
+
+def _recorded_trial(mission, planner, seeds, record) -> TrialResult:
+    from .recording import Recorder
+
+    path, k, particles = record
+    recorder = Recorder(path, mission, planner, k, particles=particles)
+    try:
+        return run_trial(mission, planner, k, seeds[k], on_step=recorder)
+    finally:
+        recorder.close()
 
 
 def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: float) -> dict:
@@ -83,32 +257,8 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "rmse": rmse.tolist(), "rmse_per_target": per_target.tolist(), "time_avg_rmse": float(rmse.mean()),
         "time_avg_rmse_per_target": per_target.mean(axis=1).tolist(),
         "mean_trace": np.stack([r.trace for r in results]).mean(axis=0).T.tolist(),
-        "timing": {k: float(np.median(secs[:, i])) for i, k in enumerate(STAGES)},
-        "guidance_status": statuses,
+        "guidance_status": dict(sorted(statuses.items())),
         "events": sum(len(r.events) for r in results),
+        "timing": {k: float(np.median(secs[:, i])) for i, k in enumerate(STAGES)},
         "wall_seconds": wall,
     }
-
-
-def run_campaign(mission: Mission, planner: str, progress=None, record=None) -> dict:
-    """All trials of ``mission`` with ``planner``, in this process; returns the summary.
-
-    ``record = (path, trial, particles)`` writes that trial to a rerun file.
-    """
-    t0 = time.perf_counter()
-    guidance = Guidance(mission.world, mission.dynamics, mission.guidance)
-    results = []
-    for k, seed in enumerate(trial_seeds(mission.seed, mission.trials)):
-        recorder = None
-        if record is not None and record[1] == k:
-            from .recording import Recorder
-
-            recorder = Recorder(record[0], mission, planner, k, particles=record[2])
-        try:
-            results.append(run_trial(mission, planner, k, seed, guidance, on_step=recorder))
-        finally:
-            if recorder is not None:
-                recorder.close()
-        if progress:
-            progress(k + 1, mission.trials)
-    return summarize(mission, planner, results, time.perf_counter() - t0)

@@ -1,4 +1,4 @@
-"""Command line: ``uavsim validate | plan | run | compare``.
+"""Command line: ``uavsim validate | plan | run | compare | sweep``.
 
 Every command validates its mission first.  A bad file prints one line
 ``error: <file>: <key.path>: <what is wrong>`` to stderr and exits 2.  ``plan`` exits 1
@@ -8,9 +8,11 @@ when some target's plan is not certified optimal.
 from __future__ import annotations
 
 import argparse
+import csv
 import importlib.util
 import json
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -94,13 +96,27 @@ def _campaign_mission(args: argparse.Namespace) -> Mission:
     for flag in ("trials", "steps"):
         if getattr(args, flag) is not None and getattr(args, flag) < 1:
             raise UsageError(f"--{flag} must be at least 1")
-    if args.clutter_rate is not None and not (args.clutter_rate >= 0 and math.isfinite(args.clutter_rate)):
-        raise UsageError("--clutter-rate must be a finite number >= 0")
-    return with_overrides(load_mission(args.mission), args.steps, args.trials, args.seed, args.clutter_rate)
+    overrides = {} if args.clutter_rate is None else {"sensor.clutter_rate": args.clutter_rate}
+    return with_overrides(load_mission(args.mission, overrides), args.steps, args.trials, args.seed)
 
 
-def _progress(done: int, total: int) -> None:
-    print(f"\r  trial {done}/{total}", end="" if done < total else "\n", file=sys.stderr, flush=True)
+def _progress(args: argparse.Namespace, label: str):
+    from .progress import Progress
+
+    return None if args.quiet else Progress(label)
+
+
+def _campaign(args: argparse.Namespace, mission: Mission, planner: str, out: Path, record=None) -> dict:
+    from .campaign import CampaignError, run_campaign
+
+    if args.workers is not None and args.workers < 1:
+        raise UsageError("--workers must be at least 1")
+    try:
+        return run_campaign(mission, planner, out=out, workers=args.workers or os.cpu_count() or 1,
+                            scheduler=args.scheduler, resume=args.resume, progress=_progress(args, planner),
+                            record=record)
+    except CampaignError as exc:
+        raise UsageError(str(exc)) from None
 
 
 def _print_summary(s: dict) -> None:
@@ -123,8 +139,6 @@ def _write_json(path: Path, data) -> None:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from .campaign import run_campaign
-
     mission = _campaign_mission(args)
     planner = args.planner or mission.planner.name
     out = Path(args.out or f"runs/{mission.path.stem}-{planner}")
@@ -135,7 +149,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.record_particles < 0:
             raise UsageError("--record-particles must be >= 0")
         record = (Path(args.record), args.record_trial, args.record_particles)
-    summary = run_campaign(mission, planner, progress=None if args.quiet else _progress, record=record)
+    summary = _campaign(args, mission, planner, out, record)
     _write_json(out / "summary.json", summary)
     _print_summary(summary)
     print(f"wrote {out / 'summary.json'}" + (f" and {args.record} (open it with: rerun {args.record})" if record else ""))
@@ -143,7 +157,6 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from .campaign import run_campaign
     from .plots import rmse_plot
     from .sim import PLANNERS
 
@@ -155,11 +168,61 @@ def cmd_compare(args: argparse.Namespace) -> int:
     out = Path(args.out)
     results = {}
     for planner in planners:
-        results[planner] = run_campaign(mission, planner, progress=None if args.quiet else _progress)
+        results[planner] = _campaign(args, mission, planner, out / planner)
         _print_summary(results[planner])
     _write_json(out / "compare.json", results)
     rmse_plot(results, out / "rmse.png")
     print(f"wrote {out / 'compare.json'} and {out / 'rmse.png'}")
+    return 0
+
+
+def _split_values(text: str) -> list[str]:
+    """``0,1,[2,3],x`` -> ``['0', '1', '[2,3]', 'x']``: commas inside brackets stay."""
+    out, depth, cur = [], 0, ""
+    for ch in text:
+        depth += ch in "[{" and 1 or ch in "]}" and -1 or 0
+        if ch == "," and depth == 0:
+            out.append(cur.strip())
+            cur = ""
+        else:
+            cur += ch
+    return [v for v in out + [cur.strip()] if v]
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from .campaign import with_overrides
+    from .config import parse_value
+    from .plots import sweep_plot
+
+    key, sep, text = args.set.partition("=")
+    values = _split_values(text)
+    if not sep or not key or not values:
+        raise UsageError("--set needs KEY=V1,V2,... (for example sensor.clutter_rate=0,1,2,4,8)")
+    if args.clutter_rate is not None:
+        raise UsageError("sweep takes the swept key from --set; drop --clutter-rate")
+    for flag in ("trials", "steps"):
+        if getattr(args, flag) is not None and getattr(args, flag) < 1:
+            raise UsageError(f"--{flag} must be at least 1")
+    missions = [with_overrides(load_mission(args.mission, {key: parse_value(v)}), args.steps, args.trials, args.seed)
+                for v in values]  # validate every value before running any
+    out = Path(args.out)
+    rows = []
+    for value, mission in zip(values, missions):
+        planner = args.planner or mission.planner.name
+        s = _campaign(args, mission, planner, out / f"{key}={value}")
+        _write_json(out / f"{key}={value}" / "summary.json", s)
+        rows.append({"key": key, "value": value, "planner": planner, "trials": s["trials"],
+                     "time_avg_rmse": s["time_avg_rmse"], "final_rmse": s["rmse"][-1],
+                     **{f"time_avg_rmse_{n}": r for n, r in zip(s["targets"], s["time_avg_rmse_per_target"])},
+                     "seconds_per_step": s["timing"]["total"]})
+        print(f"{key} = {value}: time-averaged RMSE {s['time_avg_rmse']:.2f} m, final {s['rmse'][-1]:.2f} m")
+    _write_json(out / "sweep.json", rows)
+    with open(out / "sweep.csv", "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    sweep_plot(rows, key, out / "sweep.png")
+    print(f"wrote {out / 'sweep.csv'}, {out / 'sweep.json'} and {out / 'sweep.png'}")
     return 0
 
 
@@ -169,6 +232,9 @@ def _campaign_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--steps", type=int, help="time steps per trial (default: the mission's)")
     p.add_argument("--seed", type=int, help="campaign seed; trial k uses SeedSequence(seed).spawn(trials)[k]")
     p.add_argument("--clutter-rate", type=float, help="override sensor.clutter_rate (false alarms per scan)")
+    p.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="run the trials on a Dask cluster (tcp://host:8786)")
+    p.add_argument("--resume", action="store_true", help="continue the campaign in the output folder")
     p.add_argument("--quiet", action="store_true", help="no progress output")
 
 
@@ -204,6 +270,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--planners", required=True, help=f"comma-separated, from {', '.join(PLANNERS)}")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser("sweep", help="run a mission for each value of one key; writes DIR/sweep.{csv,json,png}")
+    _campaign_args(p)
+    p.add_argument("--set", required=True, metavar="KEY=V1,V2,...", help="e.g. sensor.clutter_rate=0,1,2,4,8")
+    p.add_argument("--planner", choices=PLANNERS, help="UAV planner (default: the mission's)")
+    p.add_argument("--out", required=True, help="output folder")
+    p.set_defaults(func=cmd_sweep)
     return parser
 
 

@@ -342,15 +342,48 @@ def _check_point(world: World, table: _Table, key: str, point: np.ndarray, what:
 
 
 # --------------------------------------------------------------------------- mission
-def load_mission(path: str | Path) -> Mission:
+def parse_value(text: str):
+    """A command-line value as TOML would read it (``8``, ``0.5``, ``true``, ``[1, 2]``,
+    ``"x"``); anything TOML cannot read is taken as a bare string."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def _set_key(data: dict, key: str, value, path: Path) -> None:
+    """Set ``a.b[2].c`` in the parsed TOML, creating tables on the way."""
+    parts = key.replace("]", "").replace("[", ".").split(".")
+    node = data
+    for i, part in enumerate(parts[:-1]):
+        nxt = node[int(part)] if isinstance(node, list) else node.setdefault(part, {})
+        if not isinstance(nxt, (dict, list)):
+            raise MissionError(path, ".".join(parts[: i + 1]), f"cannot set {key}: this is a value, not a table")
+        node = nxt
+    if isinstance(node, list):
+        node[int(parts[-1])] = value
+    else:
+        node[parts[-1]] = value
+
+
+def load_mission(path: str | Path, overrides: dict[str, object] | None = None) -> Mission:
     """Read a mission file and the world it names; validate everything.
+
+    ``overrides`` maps key paths (``sensor.clutter_rate``, ``targets[0].goal``) to values
+    that replace the file's before validation, so they are checked like the file.
 
     Raises
     ------
     MissionError naming file, key path and problem.
     """
     path = Path(path)
-    top = _Table(path, "", _load_toml(path))
+    data = _load_toml(path)
+    for key, value in (overrides or {}).items():
+        try:
+            _set_key(data, key, value, path)
+        except (IndexError, ValueError, KeyError):
+            raise MissionError(path, key, "no such key to set (array index out of range?)") from None
+    top = _Table(path, "", data)
     world_rel = top.string("world")
     world_path = Path(os.path.normpath(path.parent / world_rel))
     world = load_world(world_path, referrer=(path, "world"))

@@ -24,3 +24,20 @@ def rmse_plot(summaries: dict[str, dict], path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
     plt.close(fig)
+
+
+def sweep_plot(rows: list[dict], key: str, path: Path) -> None:
+    """Time-averaged position RMSE against the swept value (a line when numeric)."""
+    fig, ax = plt.subplots(figsize=(6, 4), dpi=120)
+    try:
+        x = [float(r["value"]) for r in rows]
+        ax.plot(x, [r["time_avg_rmse"] for r in rows], "o-")
+    except ValueError:
+        ax.bar([r["value"] for r in rows], [r["time_avg_rmse"] for r in rows])
+    ax.set(xlabel=key, ylabel="time-averaged position RMSE (m)",
+           title=f"{rows[0]['planner']}, {rows[0]['trials']} trials per value")
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)

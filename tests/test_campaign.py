@@ -1,0 +1,109 @@
+"""Campaigns: identical numbers for 1 worker, 2 workers and a Dask cluster; trial files
+that survive a SIGKILL; progress output; sweeps."""
+
+import io
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from uavsim.campaign import run_campaign
+from uavsim.cli import main
+from uavsim.config import load_mission
+from uavsim.progress import Progress
+
+from .conftest import PAPER
+from .test_sim import write_small_mission
+
+
+def small(trials=3, steps=3):
+    m = load_mission(PAPER)
+    return replace(m, trials=trials, steps=steps, filter=replace(m.filter, particles=300))
+
+
+def results(summary):
+    return {k: v for k, v in summary.items() if k not in ("timing", "wall_seconds")}
+
+
+def test_one_worker_two_workers_and_dask_agree_bit_for_bit(tmp_path):
+    distributed = pytest.importorskip("distributed", reason="pip install 'uavsim[dask]'")
+    m = small()
+    one = run_campaign(m, "optimized", out=tmp_path / "one", workers=1)
+    two = run_campaign(m, "optimized", out=tmp_path / "two", workers=2)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        dask = run_campaign(m, "optimized", out=tmp_path / "dask", scheduler=cluster.scheduler_address)
+    assert results(one) == results(two) == results(dask)
+    for k in range(m.trials):  # the trial files themselves hold the same numbers
+        a, b = (np.load(tmp_path / d / "trials" / f"trial-{k:05d}.npz") for d in ("one", "dask"))
+        np.testing.assert_array_equal(a["err2"], b["err2"])
+
+
+def test_sigkill_mid_campaign_then_resume_loses_and_repeats_nothing(tmp_path):
+    mission = write_small_mission(tmp_path)
+    args = [str(mission), "--trials", "8", "--steps", "4", "--workers", "2", "--quiet"]
+    done, killed = tmp_path / "killed", tmp_path / "whole"
+    proc = subprocess.Popen([sys.executable, "-m", "uavsim", "run", *args, "--out", str(done)],
+                            start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 300
+    while not list((done / "trials").glob("trial-*.npz")) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    os.killpg(proc.pid, signal.SIGKILL)  # the campaign and its workers, no clean-up
+    assert proc.wait(timeout=30) == -signal.SIGKILL
+    before = sorted(p.name for p in (done / "trials").glob("trial-*.npz"))
+    assert 1 <= len(before) < 8, before  # interrupted part-way
+    assert main(["run", *args, "--out", str(done), "--resume"]) == 0
+    assert main(["run", *args, "--out", str(killed)]) == 0
+    files = sorted(p.name for p in (done / "trials").iterdir())
+    assert files == [f"trial-{k:05d}.npz" for k in range(8)]  # each trial once, no temporary left
+    a = json.loads((done / "summary.json").read_text())
+    b = json.loads((killed / "summary.json").read_text())
+    assert results(a) == results(b)
+
+
+def test_resume_refuses_another_campaign_and_overwrite(tmp_path, capsys):
+    mission = str(write_small_mission(tmp_path))
+    out = str(tmp_path / "c")
+    base = ["run", mission, "--trials", "1", "--steps", "2", "--workers", "1", "--quiet", "--out", out]
+    assert main(base) == 0
+    assert main(base) == 2
+    assert "already holds a campaign (1 trials done): pass --resume" in capsys.readouterr().err
+    assert main(base + ["--resume", "--seed", "99"]) == 2
+    assert "holds a different campaign" in capsys.readouterr().err
+
+
+def test_progress_bar_and_lines():
+    tty = io.StringIO()
+    p = Progress("opt", stream=tty, interactive=True, width=10)
+    p.start(4, 1)
+    p.advance()
+    p.close()
+    assert "\r" in tty.getvalue() and "[#####.....] 2/4 trials" in tty.getvalue() and "ETA" in tty.getvalue()
+    log = io.StringIO()
+    p = Progress("opt", stream=log, interactive=False)
+    p.start(40)
+    for _ in range(40):
+        p.advance()
+    p.close()
+    lines = log.getvalue().splitlines()
+    assert "\r" not in log.getvalue() and lines[0] == "opt 0/40 trials" and lines[-1].startswith("opt 40/40")
+    assert len(lines) <= 12  # one line per tenth, not per trial
+
+
+def test_sweep_writes_table_and_plot(tmp_path, capsys):
+    mission = str(write_small_mission(tmp_path))
+    out = tmp_path / "sw"
+    assert main(["sweep", mission, "--set", "sensor.clutter_rate=0,2", "--trials", "1", "--steps", "2",
+                 "--workers", "1", "--quiet", "--out", str(out)]) == 0
+    rows = json.loads((out / "sweep.json").read_text())
+    assert [r["value"] for r in rows] == ["0", "2"] and all(np.isfinite(r["time_avg_rmse"]) for r in rows)
+    assert (out / "sweep.csv").read_text().splitlines()[0].startswith("key,value,planner,trials,time_avg_rmse")
+    assert (out / "sweep.png").read_bytes()[:4] == b"\x89PNG"
+    assert json.loads((out / "sensor.clutter_rate=2" / "summary.json").read_text())["clutter_rate"] == 2.0
+    assert main(["sweep", mission, "--set", "sensor.clutter_rate=1,-1", "--out", str(out / "bad")]) == 2
+    assert "sensor.clutter_rate: must be >= 0, got -1" in capsys.readouterr().err
