@@ -62,7 +62,8 @@ def main() -> None:
     print(f"\n{args.planner} on {mission.path}: {args.trials} trials x {mission.steps} steps, {n} particles")
     print(f"{'stage':<10}{'median s/step':>15}{'p90':>10}{'max':>10}")
     for i, stage in enumerate(STAGES):
-        print(f"{stage:<10}{np.median(secs[:, i]):>15.4f}{np.quantile(secs[:, i], 0.9):>10.4f}{secs[:, i].max():>10.4f}")
+        col = secs[:, i]
+        print(f"{stage:<10}{np.median(col):>15.4f}{np.quantile(col, 0.9):>10.4f}{col.max():>10.4f}")
     print(f"trials per minute: {60 * args.trials / total:.2f} (first trial {walls[0]:.1f} s incl. building the "
           f"guidance models, later trials median {np.median(walls[1:] or walls):.1f} s)")
 

@@ -49,7 +49,8 @@ def main() -> None:
             sizes.append(path.stat().st_size)
     a, b = np.median(plain), np.median(recorded)
     print(f"{m.path}, {m.steps} steps, {args.particles} particles drawn per target, {args.repeats} repeats")
-    print(f"seconds per step: {a:.4f} without, {b:.4f} with --record: overhead {b - a:.4f} s ({100 * (b - a) / a:.1f}%)")
+    print(f"seconds per step: {a:.4f} without, {b:.4f} with --record: "
+          f"overhead {b - a:.4f} s ({100 * (b - a) / a:.1f}%)")
     print(f"recording size: {np.median(sizes) / 1e6:.2f} MB for {m.steps} steps")
 
 

@@ -50,7 +50,7 @@ def test_margin_big_m_and_speed_polygon_by_hand(paper_guidance):
 def test_paper_plans_are_certified_and_safe(paper_plans):
     """Every planned point and straight segment outside every obstacle, speed <= 16 m/s,
     |u| <= 6000 N with u_z = 0, and Eq. (7) recomputed from the plan = reported objective."""
-    world, dyn, g = MISSION.world, MISSION.dynamics, MISSION.guidance
+    world, g = MISSION.world, MISSION.guidance
     for plan in paper_plans:
         assert plan.status == "optimal" and plan.gap <= g.gap
         p = plan.positions

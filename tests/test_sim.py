@@ -45,7 +45,7 @@ def test_planners_share_truth_and_prior_particles():
     seen = {}
     for planner in ("optimized", "circle"):
         truths = []
-        run_trial(m, planner, 0, trial_seeds(m.seed, 1)[0], on_step=lambda info: truths.append(info.truth))
+        run_trial(m, planner, 0, trial_seeds(m.seed, 1)[0], on_step=lambda info, out=truths: out.append(info.truth))
         seen[planner] = np.array(truths)
     np.testing.assert_array_equal(seen["optimized"][0], seen["circle"][0])  # the drawn true start
     assert seen["optimized"].shape == (m.steps + 1, 4, 6)
@@ -117,7 +117,8 @@ def write_small_mission(tmp_path):
 def test_run_writes_summary(tmp_path, capsys):
     mission = write_small_mission(tmp_path)
     out = tmp_path / "out"
-    assert main(["run", str(mission), "--trials", "2", "--steps", "3", "--seed", "5", "--out", str(out), "--quiet"]) == 0
+    argv = ["run", str(mission), "--trials", "2", "--steps", "3", "--seed", "5", "--out", str(out), "--quiet"]
+    assert main(argv) == 0
     s = json.loads((out / "summary.json").read_text())
     for key in ("mission", "planner", "trials", "steps", "seed", "rmse", "rmse_per_target", "time_avg_rmse", "timing"):
         assert key in s
@@ -147,3 +148,33 @@ def test_bad_command_lines_exit_2(tmp_path, capsys, argv, fragment):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and fragment in err and len(err.splitlines()) == 1
+
+
+def test_failed_first_replan_coasts_and_is_logged():
+    """A belief inside an obstacle has no plan and no previous plan to fall back on: the
+    filter predicts with zero force and the step logs why, instead of raising."""
+    m = small(steps=1)
+    from uavsim.sim import Simulation
+
+    sim = Simulation(m, "optimized")
+    sim.reset(1)
+    sim.pf.particles[0, :, :2] = [375.0, 520.0]  # target 0's whole belief inside obstacle A
+    info = sim.step()
+    assert info.plans[0].status == "fallback" and np.all(info.plans[0].controls == 0)
+    assert any("T1 (estimate): no plan" in e and "coasting" in e for e in info.events)
+    assert np.all(np.isfinite(info.mean))
+
+
+def test_truth_without_a_plan_is_a_mission_error(tmp_path, capsys):
+    """A target 0.5 m west of obstacle A heading into it at 10 m/s passes validation (it
+    is outside the obstacle) but cannot be planned: exit 2 naming the target's key."""
+    text = write_small_mission(tmp_path).read_text()
+    text = text.replace("position_m = [281.0, 925.0, 0.0]",
+                        "position_m = [299.5, 520.0, 0.0]\nvelocity_mps = [10.0, 0.0, 0.0]")
+    path = tmp_path / "wall.toml"
+    path.write_text(text)
+    for workers in ("1", "2"):  # raised here, or in a worker process and re-raised here
+        assert main(["run", str(path), "--trials", "2", "--steps", "1", "--workers", workers, "--quiet",
+                     "--out", str(tmp_path / workers)]) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"error: {path}: targets[0].position_m: no guidance plan from this start"), err

@@ -39,7 +39,8 @@ def test_moments_match_closed_form_eq6():
     for tau in range(7):
         ap = np.linalg.matrix_power
         m = ap(a, tau + 1) @ mu + sum(ap(a, tau - k) @ b @ u[k] for k in range(tau + 1))
-        s = ap(a, tau + 1) @ sigma @ ap(a.T, tau + 1) + sum(ap(a, tau - k) @ q @ ap(a.T, tau - k) for k in range(tau + 1))
+        s = ap(a, tau + 1) @ sigma @ ap(a.T, tau + 1)
+        s = s + sum(ap(a, tau - k) @ q @ ap(a.T, tau - k) for k in range(tau + 1))
         np.testing.assert_allclose(means[tau], m, rtol=1e-12, atol=1e-9)
         np.testing.assert_allclose(covs[tau], s, rtol=1e-12, atol=1e-9)
 

@@ -149,12 +149,12 @@ def _prepare_folder(out: Path, mission: Mission, planner: str, resume: bool) -> 
     manifest = {"mission": str(mission.path), "planner": planner, "steps": mission.steps, "seed": mission.seed,
                 "fingerprint": fingerprint(mission)}
     path = out / "campaign.json"
-    if path.exists():
+    n_done = len(list(trials.glob("trial-*.npz")))
+    if path.exists() and n_done:  # a folder without finished trials has nothing to protect
         old = json.loads(path.read_text())
         if not resume:
-            n = len(list(trials.glob("trial-*.npz")))
-            raise CampaignError(f"{out} already holds a campaign ({n} trials done): pass --resume to continue it, "
-                                "or choose another --out")
+            raise CampaignError(f"{out} already holds a campaign ({n_done} trials done): pass --resume to continue "
+                                "it, or choose another --out")
         if any(old.get(k) != v for k, v in manifest.items() if k != "mission"):
             raise CampaignError(f"{out} holds a different campaign ({old.get('planner')}, seed {old.get('seed')}, "
                                 f"{old.get('steps')} steps, mission {old.get('mission')}): use another --out")

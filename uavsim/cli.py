@@ -152,7 +152,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     summary = _campaign(args, mission, planner, out, record)
     _write_json(out / "summary.json", summary)
     _print_summary(summary)
-    print(f"wrote {out / 'summary.json'}" + (f" and {args.record} (open it with: rerun {args.record})" if record else ""))
+    opened = f" and {args.record} (open it with: rerun {args.record})" if record else ""
+    print(f"wrote {out / 'summary.json'}{opened}")
     return 0
 
 
@@ -164,7 +165,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     planners = [p.strip() for p in args.planners.split(",") if p.strip()]
     unknown = [p for p in planners if p not in PLANNERS]
     if unknown or not planners:
-        raise UsageError(f"--planners: unknown {', '.join(unknown) or '(none given)'}; choose from {', '.join(PLANNERS)}")
+        raise UsageError(f"--planners: unknown {', '.join(unknown) or '(none given)'}; "
+                         f"choose from {', '.join(PLANNERS)}")
     out = Path(args.out)
     results = {}
     for planner in planners:
@@ -287,6 +289,10 @@ def main(argv: list[str] | None = None) -> int:
     except (MissionError, UsageError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("\ninterrupted: finished trials are kept in the output folder; continue with --resume",
+              file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -35,6 +35,9 @@ class MissionError(Exception):
         super().__init__(f"{file}: {key}: {message}")
         self.file, self.key, self.message = str(file), key, message
 
+    def __reduce__(self):  # raised in a worker process, re-raised here
+        return MissionError, (self.file, self.key, self.message)
+
 
 # --------------------------------------------------------------------------- reader
 class _Table:

@@ -83,7 +83,8 @@ class Recorder:
             rec.log("world/obstacles", rr.Boxes3D(mins=w.obstacle_lo, sizes=w.obstacle_hi - w.obstacle_lo,
                                                   labels=list(w.obstacle_names), colors=[[120, 120, 130, 200]],
                                                   fill_mode=rr.components.FillMode.Solid), static=True)
-        rec.log("world/goals", rr.Boxes3D(mins=[[*g.lo, 0.0] for g in w.goals], sizes=[[*(g.hi - g.lo), 0.5] for g in w.goals],
+        rec.log("world/goals", rr.Boxes3D(mins=[[*g.lo, 0.0] for g in w.goals],
+                                          sizes=[[*(g.hi - g.lo), 0.5] for g in w.goals],
                                           labels=[g.name for g in w.goals], colors=[[220, 40, 40, 160]],
                                           fill_mode=rr.components.FillMode.Solid), static=True)
         region = self.m.uav.region
@@ -164,7 +165,8 @@ class Recorder:
         for scan, obs in zip(info.scans, info.observers):
             reach = RAY_PAST * np.maximum(np.linalg.norm(info.mean[:, :2] - obs[:2], axis=1), 50.0)  # (M,)
             length = np.broadcast_to(reach[:, None], scan.bearings.shape)
-            for kind, mask in (("detections", scan.valid & scan.from_target), ("false_alarms", scan.valid & ~scan.from_target)):
+            kinds = (("detections", scan.valid & scan.from_target), ("false_alarms", scan.valid & ~scan.from_target))
+            for kind, mask in kinds:
                 phi, r = scan.bearings[mask], length[mask]
                 ends = np.column_stack([obs[0] + r * np.sin(phi), obs[1] + r * np.cos(phi), np.zeros(len(phi))])
                 rays[kind] += [np.array([obs, e]) for e in ends]

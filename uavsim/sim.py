@@ -23,16 +23,16 @@ prior particles whichever planner runs (common random numbers across planners).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .config import Mission
+from .config import Mission, MissionError
 from .filtering import ParticleFilter, scan_loglik
 from .guidance import Guidance, Plan
 from .planning import decide
 from .sensing import Scan, observe
-from .uav import MANOEUVRES, Route, admissible, candidates, manoeuvre_route
+from .uav import MANOEUVRES, admissible, candidates, manoeuvre_route
 
 PLANNERS = ("optimized", *MANOEUVRES, "fixed-sensors")
 STAGES = ("guidance", "filter", "planner", "truth", "total")
@@ -117,8 +117,8 @@ class Simulation:
         for j, x in enumerate(starts):
             plan = self.guidance.plan(x, np.zeros((6, 6)), self.goals[j])
             if not plan.ok:
-                raise RuntimeError(f"target {self.m.targets[j].name}: no noise-free plan from its prior mean "
-                                   f"({plan.status}: {plan.message})")
+                raise MissionError(self.m.path, f"targets[{j}].position_m",
+                                   f"no guidance plan from this start for the truth ({plan.status}: {plan.message})")
             paths.append(plan.means)
         return paths
 
@@ -172,8 +172,11 @@ class Simulation:
         if plan.ok:
             return plan
         name = self.m.targets[j].name
-        if previous is None:
-            raise RuntimeError(f"{name}: guidance failed at the first step ({plan.status}: {plan.message})")
+        if previous is None:  # nothing to fall back on: coast (zero force) until a plan exists
+            events.append(f"{name} ({who}): no plan ({plan.status}: {plan.message}); coasting")
+            controls = np.zeros((self.guidance.horizon_at(self.t), 3))
+            means, covs = self.m.dynamics.predict_moments(mean, cov, controls)
+            return replace(plan, status="fallback", controls=controls, means=means, covs=covs)
         events.append(f"{name} ({who}): re-plan {plan.status} ({plan.message}); flying the previous plan")
         return previous.shifted(self.m.dynamics, mean, cov, plan.message)
 

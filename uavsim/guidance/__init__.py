@@ -122,7 +122,8 @@ class Guidance:
         x0 = np.array([mean[0], mean[1], mean[3], mean[4]])
         z_means, _ = self.dynamics.predict_moments(mean, cov, np.zeros((horizon, 3)))
         if np.any(np.abs(z_means[:, 2]) > GROUND_BAND_M):
-            return self._failed("error", t0, f"target is not on the ground (|z| > {GROUND_BAND_M} m within the horizon)")
+            why = f"target is not on the ground (|z| > {GROUND_BAND_M} m within the horizon)"
+            return self._failed("error", t0, why)
         if self.solver == "scip":
             status, obj, lb, u, faces, terms, it, msg = self._solve_scip(p1, x0, goal[:2])
         else:

@@ -153,7 +153,8 @@ def _runs(mask: np.ndarray) -> list[np.ndarray]:
     return [np.arange(a, b) for a, b in zip(edges[::2], edges[1::2])]
 
 
-def extend_faces(y: np.ndarray, points: np.ndarray, b: np.ndarray, y_lo: np.ndarray, rank: int = 0) -> np.ndarray | None:
+def extend_faces(y: np.ndarray, points: np.ndarray, b: np.ndarray, y_lo: np.ndarray,
+                 rank: int = 0) -> np.ndarray | None:
     """One step of the upper-bound dive: switch on faces where ``points (T-1, 2)`` are
     inside an inflated obstacle.  Returns the new choice, or None if nothing is violated.
 

@@ -248,7 +248,8 @@ class OuterApproximation:
             it += 1
             status = master.getModelStatus()
             info = master.getInfo()
-            if status == _STATUS.kInfeasible or (status == _STATUS.kOptimal and info.objective_function_value >= cutoff):
+            beaten = status == _STATUS.kOptimal and info.objective_function_value >= cutoff
+            if status == _STATUS.kInfeasible or beaten:
                 if best is None:
                     return Solution("infeasible", np.inf, np.inf, np.inf, it, None, "no collision-free plan exists")
                 return self._finish("optimal", best, max(lower, cutoff), it)
@@ -360,10 +361,9 @@ class OuterApproximation:
         rows = np.arange(n_pts * k)
         term = np.tile(np.arange(k), n_pts)
         a_pt = points.reshape(-1)
-        m = sp.csr_matrix(
-            (np.r_[np.ones(n_pts * k), -2.0 * a_pt], (np.r_[rows, rows], np.r_[self.c.n_cols + term, self.c.term_cols[term]])),
-            shape=(n_pts * k, self.c.n_cols + k),
-        )
+        cols = np.r_[self.c.n_cols + term, self.c.term_cols[term]]
+        m = sp.csr_matrix((np.r_[np.ones(n_pts * k), -2.0 * a_pt], (np.r_[rows, rows], cols)),
+                          shape=(n_pts * k, self.c.n_cols + k))
         return m, -(a_pt**2)
 
     def _nogoods(self, dead: list[np.ndarray]) -> tuple[sp.csr_matrix, np.ndarray]:
@@ -378,6 +378,7 @@ class OuterApproximation:
 
     def _finish(self, status, best, lower, it, message="") -> Solution:
         if best is None:
-            return Solution("error", np.inf, lower, np.inf, it, None, message or "no feasible plan found in the time limit")
+            why = message or "no feasible plan found in the time limit"
+            return Solution("error", np.inf, lower, np.inf, it, None, why)
         gap = max(best.f - lower, 0.0) / max(best.f, 1.0)
         return Solution(status, best.f, lower, gap, it, best, message)
