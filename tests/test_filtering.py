@@ -145,3 +145,22 @@ def test_particle_filter_matches_kalman_on_linear_gaussian_toy():
     np.testing.assert_array_less(np.abs(mean[0] - mu_kf)[[0, 1, 3, 4]], 6 * sd * np.sqrt(10 / (n / 2)))
     var_kf, var_pf = np.diag(p_kf)[[0, 1, 3, 4]], np.diag(cov[0])[[0, 1, 3, 4]]
     np.testing.assert_array_less(np.abs(var_pf / var_kf - 1), 6 * np.sqrt(20 / (n / 2)))
+
+
+def test_roughening_adds_the_specified_jitter():
+    """Resampling with roughening K adds N(0, (K E N^(-1/d))^2) per dimension, E the
+    particles' spread in that dimension (Gordon, Salmond & Smith 1993).  Particles on a
+    grid with unit spread, one weight of ~1: every resampled particle is that one, so
+    the sample variance after roughening estimates the jitter variance (5 se band)."""
+    n, d, k = 20_000, 6, 0.2
+    rng = np.random.default_rng(9)
+    p = np.tile(np.linspace(0.0, 1.0, n)[:, None], (1, d))[None]  # spread E = 1 per dimension
+    logw = np.full((1, n), -1e3)
+    logw[0, 123] = 0.0
+    chosen = p[0, 123].copy()
+    pf = ParticleFilter(p.copy(), logw)
+    assert pf.resample(rng, threshold=0.5, roughening=k).tolist() == [True]
+    sd = k * 1.0 * n ** (-1.0 / d)
+    var = pf.particles[0].var(axis=0)
+    np.testing.assert_array_less(np.abs(var / sd**2 - 1), 5 * np.sqrt(2 / n))
+    np.testing.assert_allclose(pf.particles[0].mean(axis=0), chosen, atol=5 * sd / np.sqrt(n))

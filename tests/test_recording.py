@@ -116,3 +116,25 @@ def test_the_real_viewer_renders_it(recorded, tmp_path):
     assert end.shape == static.shape and static.std() > 5  # the static scene alone is drawn too
     changed = np.any(np.abs(end - static) > 30, axis=-1).mean()
     assert changed > 0.002, f"only {changed:.2%} of the top-down view shows step data"  # 0.7% seen; static-only: 0
+
+
+def _record_in_worker(path, mission):
+    rec = Recorder(path, mission, "optimized", 0, particles=10)
+    try:
+        run_trial(mission, "optimized", 0, trial_seeds(mission.seed, 1)[0], on_step=rec)
+    finally:
+        rec.close()
+    return path
+
+
+def test_recording_from_a_worker_process(mission, tmp_path):
+    """A recording made in a spawned worker (its own RecordingStream, no global state)
+    is complete when the worker returns."""
+    from concurrent.futures import ProcessPoolExecutor
+    from multiprocessing import get_context
+
+    m = replace(mission, steps=2)
+    with ProcessPoolExecutor(1, mp_context=get_context("spawn")) as pool:
+        path = pool.submit(_record_in_worker, tmp_path / "w.rrd", m).result()
+    _, rows, static = rows_per_entity(path)
+    assert "/world/obstacles" in static and rows["/uav/position"] == 3

@@ -15,7 +15,8 @@
   ``phi_i - l(x, s)`` are wrapped to (-pi, pi].  Several sensors (the fixed-sensor
   baseline) multiply their likelihoods: their log-likelihoods add.
 * Systematic resampling when ``ESS = 1 / sum w^2 < threshold N``; optional roughening
-  (Gordon, Salmond & Smith 1993): jitter ``K E N^(-1/d)`` per dimension, E the spread.
+  (Gordon, Salmond & Smith 1993): jitter ``K E N^(-1/d)`` per dimension, E the spread of
+  the particles before resampling.
 * Moments (Eq. 11): weighted mean and covariance.
 
 A degenerate update (every particle has zero likelihood, e.g. a missed detection under
@@ -126,7 +127,9 @@ class ParticleFilter:
         rows = np.flatnonzero(which)
         picked = np.take_along_axis(self.particles[rows], idx[:, :, None], axis=1)
         if roughening > 0:
-            spread = picked.max(axis=1) - picked.min(axis=1)  # (r, d)
+            # the spread E of the set before resampling: after a degenerate resampling the
+            # picked particles may coincide, and their own spread would give no jitter
+            spread = self.particles[rows].max(axis=1) - self.particles[rows].min(axis=1)  # (r, d)
             picked = picked + rng.standard_normal(picked.shape) * (roughening * spread * n ** (-1.0 / d))[:, None, :]
         self.particles[rows] = picked
         self.logw[rows] = -np.log(n)
