@@ -213,10 +213,14 @@ def test_warm_start_gives_the_cold_optimum(paper_guidance, paper_plans):
 
 
 def test_deterministic(paper_guidance):
+    """Two separately built solvers (no shared cache) give the identical plan; a repeated
+    cold call returns the memoised plan."""
     t = MISSION.targets[1]
-    a, b = paper_guidance.plan(t.mean0, t.cov0, GOAL), paper_guidance.plan(t.mean0, t.cov0, GOAL)
+    a = paper_guidance.plan(t.mean0, t.cov0, GOAL)
+    b = Guidance(MISSION.world, MISSION.dynamics, MISSION.guidance).plan(t.mean0, t.cov0, GOAL)
     np.testing.assert_array_equal(a.controls, b.controls)
     assert a.objective == b.objective
+    assert paper_guidance.plan(t.mean0, t.cov0, GOAL) is a
 
 
 def test_start_inside_obstacle_is_reported_and_falls_back(paper_guidance, paper_plans):

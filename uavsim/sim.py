@@ -97,19 +97,22 @@ class Simulation:
         return StepInfo(0, self.truth.copy(), mean, cov, self._observers(), [], [], None, None, {},
                         particles=self.pf.particles.copy())
 
-    def _start(self, rng: np.random.Generator) -> np.ndarray:
+    def _start(self, rng: np.random.Generator, tries: int = 10_000) -> np.ndarray:
         """The UAV's start: the mission's, or uniform in the region (area) at altitude h,
-        outside obstacles (rejection sampling)."""
+        outside obstacles (rejection sampling, in batches; fixed draw count per batch)."""
         uav, world = self.m.uav, self.m.world
         if not uav.random_start or self.planner == "fixed-sensors":
             return uav.start.copy()
         lo, hi = world.area_lo[:2], world.area_hi[:2]
         if uav.region is not None:
             lo, hi = np.maximum(lo, uav.region.vertices.min(0)), np.minimum(hi, uav.region.vertices.max(0))
-        while True:
-            p = np.array([*rng.uniform(lo, hi), uav.altitude])
-            if (uav.region is None or uav.region.contains(p)) and not world.in_obstacle(p):
-                return p
+        for _ in range(tries // 100):
+            p = np.column_stack([rng.uniform(lo, hi, (100, 2)), np.full(100, uav.altitude)])
+            ok = ~world.in_obstacle(p) & (uav.region.contains(p) if uav.region is not None else True)
+            if ok.any():
+                return p[np.argmax(ok)]
+        raise MissionError(self.m.path, "uav.random_start",
+                           f"no free start found in {tries} draws: the operating region is (nearly) all obstacle")
 
     def _noise_free_paths(self, starts: np.ndarray) -> list[np.ndarray]:
         """Per target, the noise-free plan from ``starts`` as a (T, 6) path of states."""
