@@ -59,7 +59,7 @@ def test_entities_and_rows(recorded, mission):
     assert rows["/uav/candidates"] == STEPS
     assert rows["/bearings/detections"] == per_step and rows["/bearings/false_alarms"] == per_step
     assert rows["/log"] >= 1  # resampling events at least
-    assert "/metrics/error_mean" in store.schema().entity_paths()
+    assert rows["/metrics/error/RMSE"] == per_step
 
 
 def test_recording_changes_no_result(recorded, mission):

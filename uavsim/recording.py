@@ -10,7 +10,7 @@ Entities (M targets named as in the mission)::
     targets/<name>/{truth, truth_path, estimate, estimate_path, particles, covariance, plan}
     uav/{position, path, candidates}                     candidates coloured by summed trace
     bearings/{detections, false_alarms}                  rays from the sensor(s)
-    metrics/{error, trace}/<name>, metrics/error_mean    scalars
+    metrics/{error, trace}/<name>, metrics/error/RMSE    scalars
     log                                                  text: fallbacks, degenerate updates, resampling
 
 Recording reads the step records only; it draws no random numbers, so a recorded trial
@@ -95,7 +95,7 @@ class Recorder:
         for name, c in zip(self.names, self.colors):  # plot series in the targets' colours
             for kind in ("error", "trace"):
                 rec.log(f"metrics/{kind}/{name}", rr.SeriesLines(colors=[c], names=[name]), static=True)
-        rec.log("metrics/error_mean", rr.SeriesLines(colors=[[255, 255, 255]], names=["mean"]), static=True)
+        rec.log("metrics/error/RMSE", rr.SeriesLines(colors=[[255, 255, 255]], names=["RMSE"]), static=True)
         if self.planner == "fixed-sensors":
             rec.log("world/sensors", rr.Points3D(self.m.planner.fixed_sensors.positions, radii=[8.0],
                                                  colors=[[20, 20, 20]], labels=["S1", "S2", "S3"]), static=True)
@@ -114,7 +114,7 @@ class Recorder:
         for name, e, tr in zip(self.names, err, trace):
             rec.log(f"metrics/error/{name}", rr.Scalars(e))
             rec.log(f"metrics/trace/{name}", rr.Scalars(tr))
-        rec.log("metrics/error_mean", rr.Scalars(err.mean()))
+        rec.log("metrics/error/RMSE", rr.Scalars(np.sqrt(np.mean(err**2))))  # over the targets, this trial
         for event in info.events:
             level = rr.TextLogLevel.INFO if event.startswith("resampled") else rr.TextLogLevel.WARN
             rec.log("log", rr.TextLog(event, level=level))
