@@ -19,6 +19,7 @@ gives the same numbers as an unrecorded one.
 
 from __future__ import annotations
 
+from datetime import timedelta
 from pathlib import Path
 
 import numpy as np
@@ -63,7 +64,11 @@ class Recorder:
         self.m, self.planner, self.n_particles = mission, planner, particles
         self.names = [t.name for t in mission.targets]
         self.colors = PALETTE[np.arange(len(self.names)) % len(PALETTE)]
-        self.rec = rr.RecordingStream("uavsim", recording_id=f"{Path(mission.path).stem}-{planner}-trial{trial}")
+        # batch by size, not by a 200 ms clock: chunk sizes (and so the compressed file) no
+        # longer depend on how fast the trial runs; close() flushes the rest
+        batching = rr.ChunkBatcherConfig(flush_tick=timedelta(seconds=5))
+        self.rec = rr.RecordingStream("uavsim", recording_id=f"{Path(mission.path).stem}-{planner}-trial{trial}",
+                                      batcher_config=batching)
         Path(path).parent.mkdir(parents=True, exist_ok=True)
         self.rec.save(str(path), default_blueprint=blueprint(mission))
         self.truth_path: list[np.ndarray] = []
