@@ -17,10 +17,22 @@ Lambda = 1 < Lambda = 8        11.38 vs 11.45       -0.03    56% at K = 10 (no d
 =============================  ==================  ========  =============================
 
 So the fast tests run 6 trials and assert the first two orderings and that Lambda = 8
-still tracks.  The circle's advantage over the other manoeuvres is real but small here
-(4-7% RMSE); it needs the paper's 100 trials and is a ``slow`` test.  That Lambda = 8 is
-*worse* is not reproduced: with sigma = 1 deg and the exact clutter likelihood, eight
-uniform false alarms per scan rarely fall near the target's bearing.
+still tracks.  The circle's advantage over the other manoeuvres is small; the ``slow``
+test runs the paper's 100 trials (same seed), where the study gave:
+
+=============================  ==================  ========  =======================
+finding, 100 trials            time-avg RMSE (m)   paired t  trials where it holds
+=============================  ==================  ========  =======================
+circle < zigzag                15.05 vs 15.98       3.2      57%
+circle < pentagon              15.05 vs 15.14       0.9      52%
+circle < square                15.05 vs 15.24       0.8      56%
+=============================  ==================  ========  =======================
+
+Only the zig-zag margin is statistically reliable at 100 trials; square and pentagon
+hold on this seed as in the paper's Fig. 3e, but by less than their noise (about 700
+trials would make t = 2).  That Lambda = 8 is *worse* is not reproduced: with
+sigma = 1 deg and the exact clutter likelihood, eight uniform false alarms per scan
+rarely fall near the target's bearing.
 """
 
 import os
@@ -92,5 +104,6 @@ def hundred(tmp_path_factory):
 @pytest.mark.slow
 @pytest.mark.parametrize("other", ["zigzag", "square", "pentagon"])
 def test_circle_beats_the_other_manoeuvres(other, hundred):
-    """Fig. 3e with the paper's 100 trials (about 30 min on 2 cores; see module docstring)."""
+    """Fig. 3e with the paper's 100 trials (about 30 min on 2 cores).  Reliable for the
+    zig-zag only; square and pentagon are within noise (table in the module docstring)."""
     assert avg(hundred("circle")) < avg(hundred(other))
