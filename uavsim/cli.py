@@ -1,4 +1,4 @@
-"""Command line: ``uavsim validate | plan | run | compare | sweep``.
+"""Command line: ``uavsim validate | plan | run | compare | sweep | tma reproduce``.
 
 Every command validates its mission first.  A bad file prints one line
 ``error: <file>: <key.path>: <what is wrong>`` to stderr and exits 2.  ``plan`` exits 1
@@ -228,6 +228,19 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_tma_reproduce(args: argparse.Namespace) -> int:
+    from .estimators.reproduce import reproduce, table, write
+
+    if args.runs < 2:
+        raise UsageError("--runs must be at least 2")
+    result = reproduce(args.name, args.runs, args.seed)
+    out = Path(args.out or f"runs/{args.name}")
+    write(result, out)
+    print(table(result))
+    print(f"wrote {out / 'result.json'} and {out / 'rmse.png'}")
+    return 0
+
+
 def _campaign_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("mission")
     p.add_argument("--trials", type=int, help="Monte-Carlo trials (default: the mission's)")
@@ -279,6 +292,16 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--planner", choices=PLANNERS, help="UAV planner (default: the mission's)")
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=cmd_sweep)
+
+    from .estimators.scenarios import SCENARIOS
+
+    tma = sub.add_parser("tma", help="the estimator library (papers 000-003)").add_subparsers(dest="tma", required=True)
+    p = tma.add_parser("reproduce", help="a paper's simulation study; writes DIR/result.json and DIR/rmse.png")
+    p.add_argument("name", choices=SCENARIOS)
+    p.add_argument("--runs", type=int, default=300, help="Monte-Carlo runs (default 300, the paper's)")
+    p.add_argument("--seed", type=int, default=2021, help="run r uses SeedSequence(seed).spawn(runs)[r]")
+    p.add_argument("--out", help="output folder (default runs/<name>)")
+    p.set_defaults(func=cmd_tma_reproduce)
     return parser
 
 

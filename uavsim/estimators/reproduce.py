@@ -1,0 +1,104 @@
+"""``uavsim tma reproduce NAME``: the study of 002_4e3cd4c0a7df16d8.txt Sec. 3.
+
+Runs every filter of :mod:`.plkf` on the same R runs (batched: one array op per scan for
+all runs), then writes ``result.json`` (per filter: RMSE curves, time-averaged RMSE,
+seconds per scan; the CRLB / constrained CRLB curves where the paper plots them) and
+``rmse.png`` laid out like the paper's Figs. 3, 5 and 7.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .crlb import constrained, crlb, rmse_bounds
+from .plkf import FILTERS, PseudoLinearKF
+from .scenarios import Scenario, draw_runs, rmse_curves, scenario, time_averaged
+
+
+def run_filter(kind: str, sc: Scenario, x0: np.ndarray, bearings: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+    """Estimates ``(R, K, 4)`` of one filter over all runs, wall seconds, degenerate counts (R,)."""
+    kf = PseudoLinearKF(kind, sc.f, sc.q, x0, sc.p0, v_min=sc.v_min, v_max=sc.v_max)
+    est = np.empty((*bearings.shape, 4))
+    t0 = time.perf_counter()
+    for k in range(bearings.shape[1]):
+        kf.step(bearings[:, k], sc.observer[k], sc.sigma)
+        est[:, k] = kf.x
+    return est, time.perf_counter() - t0, kf.degenerate
+
+
+def reproduce(name: str, runs: int, seed: int, filters=FILTERS) -> dict:
+    """The result dictionary written to ``result.json`` (curves as lists)."""
+    sc = scenario(name)
+    x0, bearings = draw_runs(sc, runs, seed)
+    out = {"scenario": name, "figure": sc.figure, "runs": runs, "seed": seed, "scans": len(sc.truth),
+           "sigma_assumed_deg": float(np.degrees(sc.sigma)), "v_min_mps": sc.v_min, "v_max_mps": sc.v_max,
+           "filters": {}}
+    for kind in filters:
+        est, seconds, degenerate = run_filter(kind, sc, x0, bearings)
+        pos, vel = rmse_curves(est, sc.truth)
+        finite = np.isfinite(est).all(axis=(1, 2))
+        out["filters"][kind] = {
+            "rmse_pos_m": pos.tolist(), "rmse_vel_mps": vel.tolist(),
+            "time_avg_rmse_pos_m": time_averaged(pos), "time_avg_rmse_vel_mps": time_averaged(vel),
+            "seconds_per_scan": seconds / len(sc.truth), "seconds_per_scan_per_run": seconds / len(sc.truth) / runs,
+            "degenerate_updates": int(degenerate.sum()), "diverged_runs": int((~finite).sum()),
+        }
+    if sc.with_crlb:
+        bound = crlb(sc.truth, sc.observer, sc.sigma_true, sc.f, sc.q, sc.p0)
+        for key, b in (("crlb", bound), ("ccrlb", constrained(bound, sc.truth))):
+            pos, vel = rmse_bounds(b)
+            out[key] = {"pos_m": pos.tolist(), "vel_mps": vel.tolist(),
+                        "time_avg_pos_m": time_averaged(pos), "time_avg_vel_mps": time_averaged(vel)}
+    return out
+
+
+def table(result: dict) -> str:
+    """The printed summary: time-averaged RMSEs and runtimes normalised by UB-PLKF."""
+    f = result["filters"]
+    ub = f.get("ub-plkf", {}).get("seconds_per_scan")
+    lines = [f"{result['scenario']} ({result['figure']}): {result['runs']} runs, seed {result['seed']}, "
+             f"time-averaged over scans 60..{result['scans']}",
+             f"{'filter':10s}{'pos RMSE (m)':>14s}{'vel RMSE (m/s)':>16s}{'runtime / UB':>14s}"]
+    for kind, r in f.items():
+        rel = f"{r['seconds_per_scan'] / ub:14.2f}" if ub else f"{'-':>14s}"
+        lines.append(f"{kind:10s}{r['time_avg_rmse_pos_m']:14.2f}{r['time_avg_rmse_vel_mps']:16.3f}{rel}")
+    for key in ("crlb", "ccrlb"):
+        if key in result:
+            lines.append(f"{key.upper():10s}{result[key]['time_avg_pos_m']:14.2f}{result[key]['time_avg_vel_mps']:16.3f}")
+    return "\n".join(lines)
+
+
+def plot(result: dict, path: Path) -> None:
+    """Position and velocity RMSE per scan (log scale), bounds dashed: Figs. 3, 5, 7."""
+    from ..plots import plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), dpi=120)
+    k = np.arange(1, result["scans"] + 1)
+    for kind, r in result["filters"].items():
+        for ax, key in zip(axes, ("rmse_pos_m", "rmse_vel_mps")):
+            ax.semilogy(k, r[key], label=kind)
+    for key, style in (("crlb", "k--"), ("ccrlb", "k:")):
+        if key in result:
+            for ax, sub in zip(axes, ("pos_m", "vel_mps")):
+                ax.semilogy(k, result[key][sub], style, label=key.upper())
+    for ax, ylabel in zip(axes, ("position RMSE (m)", "velocity RMSE (m/s)")):
+        ax.set(xlabel="scan k", ylabel=ylabel)
+        ax.grid(alpha=0.3, which="both")
+    axes[0].legend()
+    fig.suptitle(f"{result['scenario']} (cf. 002 {result['figure']}): {result['runs']} runs")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def write(result: dict, out: Path) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    tmp = out / "result.json.tmp"
+    tmp.write_text(json.dumps(result, indent=1))
+    tmp.replace(out / "result.json")
+    plot(result, out / "rmse.png")
