@@ -16,7 +16,7 @@ import numpy as np
 from uavsim.campaign import run_trial, trial_seeds, with_overrides
 from uavsim.config import load_mission
 from uavsim.guidance import Guidance
-from uavsim.planning import decide
+from uavsim.planning import decide, pseudo_traces
 from uavsim.sim import STAGES, Simulation
 from uavsim.uav import admissible, candidates
 
@@ -32,7 +32,7 @@ def decision_seconds(mission, repeats=200) -> np.ndarray:
     out = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        decide(cands, ok, sim.pf.particles, sim.pf.weights, mission.sensor.sigma)
+        decide(cands, ok, lambda c: pseudo_traces(c, sim.est.particles, sim.est.weights, mission.sensor.sigma))
         out.append(time.perf_counter() - t0)
     return np.array(out)
 

@@ -106,6 +106,11 @@ BAD_MISSIONS = [
     (sub('truth = "planned"', 'truth = "exact"'), "truth", "must be one of planned, stochastic"),
     (NO_TARGETS.replace("seed = 2023", "seed = 2023\ntargets = 'T1'"), "targets", "expected an array of tables"),
     (NO_TARGETS.replace("seed = 2023", "seed = 2023\ntargets = []"), "targets", "at least one"),
+    (sub("particles = 5000", 'kind = "ub-plkf"'), "filter.kind", "ub-plkf has no clutter model"),
+    (sub("particles = 5000", 'kind = "ekf"'), "filter.kind", "must be one of particle, plkf"),
+    (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "iv-plkf"')
+     .replace("clutter_rate = 0.0\n\n#", "clutter_rate = 0.5\n\n#"),
+     "planner.fixed_sensors.clutter_rate", "needs clutter-free sensors"),
 ]
 
 

@@ -40,7 +40,7 @@ def test_traces_and_choice_match_the_loop():
     np.testing.assert_allclose(got, want, rtol=1e-5)  # float32 kernel on centred particles
     ok = np.ones(61, bool)
     ok[[5, 17]] = False
-    best, total = decide(cands, ok, particles, weights, SIGMA)
+    best, total = decide(cands, ok, lambda c: pseudo_traces(c, particles, weights, SIGMA))
     masked = np.where(ok, want.sum(1), np.inf)
     assert best == int(np.argmin(masked)) and np.isinf(total[[5, 17]]).all()
 
@@ -50,7 +50,8 @@ def test_ties_go_to_the_lowest_index():
     particles = cloud(rng, np.array([[500.0, 500, 0, 0, 0, 0]]), 200, 10.0)
     weights = np.full((1, 200), 1 / 200)
     cands = np.tile([[100.0, 100.0, 40.0]], (5, 1))
-    assert decide(cands, np.array([False, True, True, True, True]), particles, weights, SIGMA)[0] == 1
+    ok = np.array([False, True, True, True, True])
+    assert decide(cands, ok, lambda c: pseudo_traces(c, particles, weights, SIGMA))[0] == 1
 
 
 def test_moving_across_the_line_of_sight_beats_moving_along_it():
@@ -69,3 +70,16 @@ def test_moving_across_the_line_of_sight_beats_moving_along_it():
     assert traces[1] < 0.2 * prior and traces[2] < 0.2 * prior
     assert traces[0] > 0.9 * prior
     assert np.argmin(traces) in (1, 2)
+
+
+def test_gaussian_traces_by_hand():
+    """P = a I, candidate r = 200 m away: |h| = 1 / r, so the trace drops by
+    a^2 / r^2 / (a / r^2 + sigma^2) (Eq. 12-13 linearised; pseudo-linear filters)."""
+    from uavsim.planning import gaussian_traces
+
+    a, r, sigma = 25.0, 200.0, 0.02
+    means = np.array([[300.0, 400.0, 0, 1, 2, 0]])
+    cands = np.array([[300.0, 200.0, 40.0], [300.0 + r, 400.0, 40.0]])
+    got = gaussian_traces(cands, means, a * np.eye(6)[None], sigma)
+    want = 6 * a - a**2 / r**2 / (a / r**2 + sigma**2)
+    np.testing.assert_allclose(got[:, 0], [want, want], rtol=1e-12)

@@ -34,7 +34,7 @@ def _summary(m: Mission) -> str:
         f"uav       start {m.uav.start.tolist()} m, step {m.uav.step:g} m, "
         f"N_theta {m.uav.n_theta}, N_r {m.uav.n_r}, h {m.uav.altitude:g} m, {region}",
         f"guidance  T {g.horizon}, rho {g.rho:g}, |u| <= {g.force_max:g} N, speed <= {g.speed_max:g} m/s",
-        f"filter    {m.filter.particles} particles",
+        f"filter    {m.filter.particles} particles" if m.filter.kind == "particle" else f"filter    {m.filter.kind}",
         f"planner   {m.planner.name}; {m.steps} steps x {m.trials} trials, seed {m.seed}, truth {m.truth}",
     ]
     return "\n".join(lines)

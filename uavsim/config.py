@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from .estimators.plkf import FILTERS
 from .sensing import Sensor
 from .targets import Dynamics, Target
 from .world import GoalRegion, Region2D, World, inside_polytopes
@@ -227,11 +228,13 @@ class GuidanceConfig:
 
 @dataclass(frozen=True)
 class FilterConfig:
-    """Particle filter settings (Sec. V-A)."""
+    """The estimator: ``kind = "particle"`` (004 Sec. V-A, the default) or one of 002's
+    pseudo-linear Kalman filters (clutter-free sensors only); particle settings."""
 
     particles: int
     resample_threshold: float
     roughening: float
+    kind: str = "particle"
 
 
 @dataclass(frozen=True)
@@ -398,8 +401,11 @@ def load_mission(path: str | Path, overrides: dict[str, object] | None = None) -
     if not targets:
         top.fail("targets", "at least one [[targets]] table is required")
     guidance = _guidance(top.table("guidance"))
-    filt = _filter(top.table("filter"))
+    filt = _filter(top.table("filter"), sensor)
     planner = _planner(top.table("planner"), uav, sensor)
+    if filt.kind != "particle" and planner.fixed_sensors.sensor.clutter_rate > 0:
+        raise MissionError(path, "planner.fixed_sensors.clutter_rate", f"filter.kind = {filt.kind} needs clutter-free "
+                           "sensors; set it to 0 or use the particle filter")
     mission = Mission(
         path=path, world_path=world_path, world=world, dynamics=dynamics, targets=targets,
         sensor=sensor, uav=uav, guidance=guidance, filter=filt, planner=planner,
@@ -504,9 +510,14 @@ def _guidance(t: _Table) -> GuidanceConfig:
     return g
 
 
-def _filter(t: _Table) -> FilterConfig:
+def _filter(t: _Table, sensor: Sensor) -> FilterConfig:
+    kind = t.string("kind", default="particle", choices=("particle", *FILTERS))
+    if kind != "particle" and sensor.clutter_rate > 0:
+        t.fail("kind", f"{kind} has no clutter model: it needs sensor.clutter_rate = 0 "
+                       f"(got {sensor.clutter_rate:g}); use kind = \"particle\"")
     f = FilterConfig(
-        particles=t.number("particles", integer=True, lo=10),
+        kind=kind,
+        particles=t.number("particles", integer=True, lo=10, default=5000 if kind != "particle" else _MISSING),
         resample_threshold=t.number("resample_threshold", default=0.5, lo=0, hi=1),
         roughening=t.number("roughening", default=0.0, lo=0),
     )

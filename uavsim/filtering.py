@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import logsumexp
 
+from .estimators.plkf import UPDATES
 from .sensing import Scan, Sensor, bearing, wrap_angle
 
 LOG_2PI = np.log(2.0 * np.pi)
@@ -165,3 +166,48 @@ def weighted_moments(particles: np.ndarray, weights: np.ndarray) -> tuple[np.nda
 def scan_loglik(scan: Scan, particles: np.ndarray, observer: np.ndarray, sensor: Sensor) -> np.ndarray:
     """Eq. (10) for every particle ``(M, N, 6)`` and one scan taken at ``observer (3,)``."""
     return log_likelihood(scan.bearings, scan.valid, bearing(particles, observer), sensor)
+
+
+class PseudoLinearTracks:
+    """M targets tracked by one of 002's pseudo-linear Kalman filters instead of particles
+    (``filter.kind``; clutter-free missions only, enforced by the mission validation).
+
+    The 6-D state ``[x, y, z, vx, vy, vz]`` is predicted exactly (Eq. 9a in moments:
+    ``A mu + B u``, ``A Sigma A^T + Q``); a detection updates it with 002's pseudo-linear
+    step on the horizontal position ``(0, 1)`` and velocity ``(3, 4)``.  Bearings convert
+    at this edge: 002 measures from +x anticlockwise, ``beta = pi/2 - phi``.  A channel
+    without a detection keeps its prediction; a degenerate update is skipped and reported.
+    VC-PLKF bounds the horizontal speed to ``[0, v_max]`` (the guidance speed limit).
+
+    Attributes
+    ----------
+    mean : (M, 6); cov : (M, 6, 6).
+    """
+
+    def __init__(self, kind: str, means: np.ndarray, covs: np.ndarray, v_max: float):
+        if kind not in UPDATES:
+            raise ValueError(f"unknown filter {kind!r}; choose from {', '.join(UPDATES)}")
+        self.kind, self.mean, self.cov = kind, means.astype(float).copy(), covs.astype(float).copy()
+        self.kw = {"v_min": 0.0, "v_max": v_max} if kind == "vc-plkf" else {}
+
+    def predict(self, rng: np.random.Generator, a: np.ndarray, b: np.ndarray, q_chol: np.ndarray,
+                controls: np.ndarray) -> None:
+        self.mean = self.mean @ a.T + controls @ b.T
+        self.cov = a @ self.cov @ a.T + q_chol @ q_chol.T
+
+    def update(self, scan: Scan, observer: np.ndarray, sigma: float) -> np.ndarray:
+        """One clutter-free scan from ``observer (3,)``.  Returns (M,) bool: degenerate."""
+        m = len(self.mean)
+        detected = scan.valid.any(axis=1)
+        if not detected.any():
+            return np.zeros(m, bool)
+        phi = scan.bearings[np.arange(m), np.argmax(scan.valid, axis=1)]
+        x, p, ok = UPDATES[self.kind](self.mean, self.cov, np.pi / 2 - phi, observer[:2], sigma,
+                                      pos=(0, 1), vel=(3, 4), **self.kw)
+        take = detected & ok
+        self.mean = np.where(take[:, None], x, self.mean)
+        self.cov = np.where(take[:, None, None], p, self.cov)
+        return detected & ~ok
+
+    def moments(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.mean.copy(), self.cov.copy()

@@ -52,11 +52,24 @@ def pseudo_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.nda
     return (sums[..., 7] / w0 - (sums[..., 1:7] ** 2).sum(-1) / w0**2).T
 
 
-def decide(candidates: np.ndarray, admissible: np.ndarray, particles: np.ndarray, weights: np.ndarray,
-           sigma: float) -> tuple[int, np.ndarray]:
+def gaussian_traces(candidates: np.ndarray, means: np.ndarray, covs: np.ndarray, sigma: float) -> np.ndarray:
+    """Eq. (12)-(13) for Gaussian beliefs (the pseudo-linear filters): the trace after a
+    noise-free bearing linearised at the mean, ``tr(P) - |P h|^2 / (h P h^T + sigma^2)``,
+    ``h = (dy, -dx, 0, ...) / r^2`` the gradient of ``atan2(dx, dy)``.
+
+    candidates (C, >=2); means (M, 6); covs (M, 6, 6).  Returns (C, M)."""
+    d = means[None, :, :2] - candidates[:, None, :2]  # (C, M, 2)
+    h2 = np.stack([d[..., 1], -d[..., 0]], -1) / np.sum(d**2, -1, keepdims=True)
+    ph = np.einsum("mij,cmj->cmi", covs[:, :, :2], h2)  # (C, M, 6)
+    s = np.einsum("cmi,cmi->cm", h2, ph[..., :2]) + sigma**2
+    return np.trace(covs, axis1=1, axis2=2)[None, :] - np.sum(ph**2, -1) / s
+
+
+def decide(candidates: np.ndarray, admissible: np.ndarray, traces) -> tuple[int, np.ndarray]:
     """Eq. (13): index of the admissible candidate with the least summed trace, and the
-    summed traces ``(C,)`` (``inf`` for inadmissible candidates)."""
+    summed traces ``(C,)`` (``inf`` for inadmissible candidates).  ``traces(candidates)``
+    gives ``(C, M)``: :func:`pseudo_traces` or :func:`gaussian_traces` bound to the beliefs."""
     total = np.full(len(candidates), np.inf)
     if admissible.any():
-        total[admissible] = pseudo_traces(candidates[admissible], particles, weights, sigma).sum(axis=1)
+        total[admissible] = traces(candidates[admissible]).sum(axis=1)
     return int(np.argmin(total)), total

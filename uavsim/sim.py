@@ -28,9 +28,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .config import Mission, MissionError
-from .filtering import ParticleFilter, scan_loglik
+from .filtering import ParticleFilter, PseudoLinearTracks, scan_loglik
 from .guidance import Guidance, Plan
-from .planning import decide
+from .planning import decide, gaussian_traces, pseudo_traces
 from .sensing import Scan, observe
 from .uav import MANOEUVRES, admissible, candidates, manoeuvre_route
 
@@ -80,7 +80,10 @@ class Simulation:
         m = self.m
         means0 = np.array([t.mean0 for t in m.targets])
         covs0 = np.array([t.cov0 for t in m.targets])
-        self.pf = ParticleFilter.from_priors(self.rng_filter, means0, covs0, m.filter.particles)
+        if m.filter.kind == "particle":
+            self.est = ParticleFilter.from_priors(self.rng_filter, means0, covs0, m.filter.particles)
+        else:
+            self.est = PseudoLinearTracks(m.filter.kind, means0, covs0, m.guidance.speed_max)
         self.t = 0
         self.plans: list[Plan | None] = [None] * len(m.targets)
         self.truth_plans: list[Plan | None] = [None] * len(m.targets)
@@ -93,9 +96,9 @@ class Simulation:
         self.uav = self._start(np.random.default_rng(uav_ss))
         self.route = manoeuvre_route(self.planner, self.uav, m.planner.manoeuvres, m.uav, m.world, m.path) \
             if self.planner in MANOEUVRES else None
-        mean, cov = self.pf.moments()
+        mean, cov = self.est.moments()
         return StepInfo(0, self.truth.copy(), mean, cov, self._observers(), [], [], None, None, {},
-                        particles=self.pf.particles.copy())
+                        particles=self._particles())
 
     def _start(self, rng: np.random.Generator, tries: int = 10_000) -> np.ndarray:
         """The UAV's start: the mission's, or uniform in the region (area) at altitude h,
@@ -134,14 +137,14 @@ class Simulation:
     def step(self) -> StepInfo:
         m, sec, events = self.m, {}, []
         t0 = time.perf_counter()
-        mean, cov = self.pf.moments()
+        mean, cov = self.est.moments()
         self.plans = [self._replan(j, mean[j], cov[j], self.plans[j], events, "estimate") for j in range(len(mean))]
         sec["guidance"] = time.perf_counter() - t0
 
         t1 = time.perf_counter()
         controls = np.array([p.controls[0] for p in self.plans])
         dyn = m.dynamics
-        self.pf.predict(self.rng_filter, dyn.a, dyn.b, dyn.q_chol, controls)
+        self.est.predict(self.rng_filter, dyn.a, dyn.b, dyn.q_chol, controls)
         sec["filter"] = time.perf_counter() - t1
 
         t2 = time.perf_counter()
@@ -156,19 +159,31 @@ class Simulation:
         observers = self._observers()
         sensor = m.planner.fixed_sensors.sensor if self.planner == "fixed-sensors" else m.sensor
         scans = [observe(self.rng_sensor, sensor, self.truth[:, :3], o) for o in observers]
-        loglik = sum(scan_loglik(s, self.pf.particles, o, sensor) for s, o in zip(scans, observers))
-        degenerate = self.pf.update(loglik)
-        for j in np.flatnonzero(degenerate):
-            events.append(f"{m.targets[j].name}: degenerate update skipped (no particle explains the bearings)")
-        resampled = self.pf.resample(self.rng_filter, m.filter.resample_threshold, m.filter.roughening)
-        if resampled.any():
-            events.append("resampled " + ", ".join(m.targets[j].name for j in np.flatnonzero(resampled)))
-        mean, cov = self.pf.moments()
+        self._update(scans, observers, sensor, events)
+        mean, cov = self.est.moments()
         sec["filter"] += time.perf_counter() - t4
         sec["total"] = time.perf_counter() - t0
         self.t += 1
         return StepInfo(self.t, self.truth.copy(), mean, cov, observers, scans, self.plans, cands, scores, sec, events,
-                        self.pf.particles.copy())
+                        self._particles())
+
+    def _particles(self) -> np.ndarray | None:
+        return self.est.particles.copy() if isinstance(self.est, ParticleFilter) else None
+
+    def _update(self, scans: list[Scan], observers: np.ndarray, sensor, events: list[str]) -> None:
+        m = self.m
+        if isinstance(self.est, PseudoLinearTracks):  # clutter-free: each sensor's scan in turn
+            for scan, o in zip(scans, observers):
+                for j in np.flatnonzero(self.est.update(scan, o, sensor.sigma)):
+                    events.append(f"{m.targets[j].name}: degenerate {m.filter.kind} update skipped")
+            return
+        loglik = sum(scan_loglik(s, self.est.particles, o, sensor) for s, o in zip(scans, observers))
+        degenerate = self.est.update(loglik)
+        for j in np.flatnonzero(degenerate):
+            events.append(f"{m.targets[j].name}: degenerate update skipped (no particle explains the bearings)")
+        resampled = self.est.resample(self.rng_filter, m.filter.resample_threshold, m.filter.roughening)
+        if resampled.any():
+            events.append("resampled " + ", ".join(m.targets[j].name for j in np.flatnonzero(resampled)))
 
     def _replan(self, j: int, mean, cov, previous: Plan | None, events: list[str], who: str) -> Plan:
         plan = self.guidance.plan(mean, cov, self.goals[j], warm=previous, horizon=self.guidance.horizon_at(self.t))
@@ -187,7 +202,11 @@ class Simulation:
         if self.planner == "optimized":
             cands = candidates(self.uav, self.m.uav)
             ok = admissible(self.uav, cands, self.m.world, self.m.uav)
-            best, scores = decide(cands, ok, self.pf.particles, self.pf.weights, self.m.sensor.sigma)
+            sigma, est = self.m.sensor.sigma, self.est
+            if isinstance(est, ParticleFilter):
+                best, scores = decide(cands, ok, lambda c: pseudo_traces(c, est.particles, est.weights, sigma))
+            else:
+                best, scores = decide(cands, ok, lambda c: gaussian_traces(c, est.mean, est.cov, sigma))
             if np.isfinite(scores[best]):
                 self.uav = cands[best]
             return cands, scores
