@@ -253,7 +253,9 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
     return {
         "mission": str(mission.path), "planner": planner, "trials": len(results), "steps": mission.steps,
         "seed": mission.seed, "truth": mission.truth, "clutter_rate": mission.sensor.clutter_rate,
-        "particles": mission.filter.particles, "targets": [t.name for t in mission.targets],
+        "filter": mission.filter.kind,
+        "particles": mission.filter.particles if mission.filter.kind == "particle" else None,
+        "targets": [t.name for t in mission.targets],
         "rmse": rmse.tolist(), "rmse_per_target": per_target.tolist(), "time_avg_rmse": float(rmse.mean()),
         "time_avg_rmse_per_target": per_target.mean(axis=1).tolist(),
         "mean_trace": np.stack([r.trace for r in results]).mean(axis=0).T.tolist(),
