@@ -245,3 +245,16 @@ def test_filters_run_on_scenario1():
     for kind in plkf.FILTERS:
         est, _, _ = run_filter(kind, sc, x0, bearings)
         assert np.isfinite(est).all()
+
+
+def test_tma_reproduce_command(tmp_path, capsys):
+    import json
+
+    from uavsim.cli import main
+
+    assert main(["tma", "reproduce", "huang2021-scenario2", "--runs", "5", "--out", str(tmp_path)]) == 0
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert set(result["filters"]) == set(plkf.FILTERS) and len(result["crlb"]["pos_m"]) == 350
+    assert (tmp_path / "rmse.png").stat().st_size > 10_000
+    assert "iv-plkf" in capsys.readouterr().out
+    assert main(["tma", "reproduce", "huang2021-scenario2", "--runs", "1", "--out", str(tmp_path)]) == 2

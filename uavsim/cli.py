@@ -229,13 +229,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_tma_reproduce(args: argparse.Namespace) -> int:
-    from .estimators.reproduce import reproduce, table, write
+    from .estimators.reproduce import reproduce, table
+    from .plots import tma_rmse_plot
 
     if args.runs < 2:
         raise UsageError("--runs must be at least 2")
     result = reproduce(args.name, args.runs, args.seed)
     out = Path(args.out or f"runs/{args.name}")
-    write(result, out)
+    _write_json(out / "result.json", result)
+    tma_rmse_plot(result, out / "rmse.png")
     print(table(result))
     print(f"wrote {out / 'result.json'} and {out / 'rmse.png'}")
     return 0

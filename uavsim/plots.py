@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after choosing the backend)
@@ -37,6 +38,29 @@ def sweep_plot(rows: list[dict], key: str, path: Path) -> None:
     ax.set(xlabel=key, ylabel="time-averaged position RMSE (m)",
            title=f"{rows[0]['planner']}, {rows[0]['trials']} trials per value")
     ax.grid(alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def tma_rmse_plot(result: dict, path: Path) -> None:
+    """``uavsim tma reproduce``: position and velocity RMSE per scan (log scale), bounds
+    dashed, from its ``result.json`` dictionary: 002 Figs. 3, 5, 7."""
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), dpi=120)
+    k = np.arange(1, result["scans"] + 1)
+    for kind, r in result["filters"].items():
+        for ax, key in zip(axes, ("rmse_pos_m", "rmse_vel_mps")):
+            ax.semilogy(k, r[key], label=kind)
+    for key, style in (("crlb", "k--"), ("ccrlb", "k:")):
+        if key in result:
+            for ax, sub in zip(axes, ("pos_m", "vel_mps")):
+                ax.semilogy(k, result[key][sub], style, label=key.upper())
+    for ax, ylabel in zip(axes, ("position RMSE (m)", "velocity RMSE (m/s)")):
+        ax.set(xlabel="scan k", ylabel=ylabel)
+        ax.grid(alpha=0.3, which="both")
+    axes[0].legend()
+    fig.suptitle(f"{result['scenario']} (cf. 002 {result['figure']}): {result['runs']} runs")
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)

@@ -213,8 +213,8 @@ class PseudoLinearKF:
     v_max: float = np.inf
     pos: tuple[int, int] = POS
     vel: tuple[int, int] = VEL
-    started: bool = False
-    degenerate: np.ndarray = field(default=None)
+    started: bool = field(default=False, init=False)
+    degenerate: np.ndarray = field(init=False)
 
     def __post_init__(self):
         if self.kind not in UPDATES:

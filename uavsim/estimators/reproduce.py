@@ -2,15 +2,13 @@
 
 Runs every filter of :mod:`.plkf` on the same R runs (batched: one array op per scan for
 all runs), then writes ``result.json`` (per filter: RMSE curves, time-averaged RMSE,
-seconds per scan; the CRLB / constrained CRLB curves where the paper plots them) and
-``rmse.png`` laid out like the paper's Figs. 3, 5 and 7.
+seconds per scan; the CRLB / constrained CRLB curves where the paper plots them);
+:func:`uavsim.plots.tma_rmse_plot` draws it like the paper's Figs. 3, 5 and 7.
 """
 
 from __future__ import annotations
 
-import json
 import time
-from pathlib import Path
 
 import numpy as np
 
@@ -70,35 +68,3 @@ def table(result: dict) -> str:
         if key in result:
             lines.append(f"{key.upper():10s}{result[key]['time_avg_pos_m']:14.2f}{result[key]['time_avg_vel_mps']:16.3f}")
     return "\n".join(lines)
-
-
-def plot(result: dict, path: Path) -> None:
-    """Position and velocity RMSE per scan (log scale), bounds dashed: Figs. 3, 5, 7."""
-    from ..plots import plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4), dpi=120)
-    k = np.arange(1, result["scans"] + 1)
-    for kind, r in result["filters"].items():
-        for ax, key in zip(axes, ("rmse_pos_m", "rmse_vel_mps")):
-            ax.semilogy(k, r[key], label=kind)
-    for key, style in (("crlb", "k--"), ("ccrlb", "k:")):
-        if key in result:
-            for ax, sub in zip(axes, ("pos_m", "vel_mps")):
-                ax.semilogy(k, result[key][sub], style, label=key.upper())
-    for ax, ylabel in zip(axes, ("position RMSE (m)", "velocity RMSE (m/s)")):
-        ax.set(xlabel="scan k", ylabel=ylabel)
-        ax.grid(alpha=0.3, which="both")
-    axes[0].legend()
-    fig.suptitle(f"{result['scenario']} (cf. 002 {result['figure']}): {result['runs']} runs")
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
-
-
-def write(result: dict, out: Path) -> None:
-    out.mkdir(parents=True, exist_ok=True)
-    tmp = out / "result.json.tmp"
-    tmp.write_text(json.dumps(result, indent=1))
-    tmp.replace(out / "result.json")
-    plot(result, out / "rmse.png")
