@@ -167,10 +167,13 @@ def test_failed_first_replan_coasts_and_is_logged():
 
 def test_truth_without_a_plan_is_a_mission_error(tmp_path, capsys):
     """A target 0.5 m west of obstacle A heading into it at 10 m/s passes validation (it
-    is outside the obstacle) but cannot be planned: exit 2 naming the target's key."""
+    is outside the obstacle) but cannot be planned: exit 2 naming the target's key.  Its
+    prior is made tight, so the true start drawn from it is this start to 1 mm."""
     text = write_small_mission(tmp_path).read_text()
     text = text.replace("position_m = [281.0, 925.0, 0.0]",
                         "position_m = [299.5, 520.0, 0.0]\nvelocity_mps = [10.0, 0.0, 0.0]")
+    wide, tight = "[200.0, 200.0, 1e-10, 20.0, 20.0, 1e-10]", "[1e-7, 1e-7, 1e-10, 1e-7, 1e-7, 1e-10]"
+    text = text.replace(f"cov0_si = {wide}", f"cov0_si = {tight}", 1)
     path = tmp_path / "wall.toml"
     path.write_text(text)
     for workers in ("1", "2"):  # raised here, or in a worker process and re-raised here

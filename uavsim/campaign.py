@@ -12,8 +12,13 @@
   ``DIR/trials/trial-KKKKK.npz`` at once, atomically (temporary file, fsync, rename),
   and the summary is computed from those files.  ``resume`` runs only the trials without
   a file, after checking ``DIR/campaign.json`` describes the same campaign.
-* **Metrics (Sec. VI-B).** At step t, ``eps_t = sqrt(mean_n |x^pos_hat_t(n) - x^pos_t(n)|^2)``
-  over the trials, (x, y) positions; ``rmse`` averages it over the targets.
+* **Metrics** (:mod:`.metrics`): the RMSE of Sec. VI-B per step and target, the
+  per-trial mean squared errors (for paired statistics), the average NEES of the position
+  (x, y) and of the full state with their 95% chi-square bands.
+* **The no-information baseline.** The ``baseline`` planner runs the same trials with no
+  sensor (its filter only predicts).  It does not depend on the sensor, the UAV or the
+  planner settings, so its campaign fingerprint leaves them out: one baseline serves every
+  planner and clutter rate of a mission.  :func:`with_baseline` adds it to a summary.
 """
 
 from __future__ import annotations
@@ -31,9 +36,12 @@ from pathlib import Path
 import numpy as np
 from threadpoolctl import threadpool_limits
 
+from . import metrics
 from .config import Mission
 from .guidance import Guidance
 from .sim import STAGES, Simulation
+
+FORMAT = 2  # trial-file layout; a folder written in another layout is not resumed
 
 
 class CampaignError(Exception):
@@ -43,11 +51,14 @@ class CampaignError(Exception):
 @dataclass(frozen=True)
 class TrialResult:
     """One trial's record: squared (x, y) errors ``(steps, M)``, covariance traces
-    ``(steps, M)``, stage seconds ``(steps, len(STAGES))``, guidance statuses, events."""
+    ``(steps, M)``, NEES of the position and of the state ``(steps, M)``, stage seconds
+    ``(steps, len(STAGES))``, guidance statuses, events."""
 
     index: int
     err2: np.ndarray
     trace: np.ndarray
+    nees_pos: np.ndarray
+    nees_state: np.ndarray
     seconds: np.ndarray
     statuses: dict[str, int]
     events: tuple[str, ...]
@@ -72,18 +83,21 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
         info = sim.reset(seed)
         if on_step:
             on_step(info)
-        err2, trace, secs, statuses, events = [], [], [], {}, []
+        err2, trace, nees_pos, nees_state, secs, statuses, events = [], [], [], [], [], {}, []
         for _ in range(mission.steps):
             info = sim.step()
             if on_step:
                 on_step(info)
             err2.append(((info.mean[:, :2] - info.truth[:, :2]) ** 2).sum(axis=1))
             trace.append(np.trace(info.cov, axis1=1, axis2=2))
+            nees_pos.append(metrics.state_nees(info.mean, info.cov, info.truth, metrics.POS))
+            nees_state.append(metrics.state_nees(info.mean, info.cov, info.truth, metrics.STATE))
             secs.append([info.seconds[k] for k in STAGES])
             for p in info.plans:
                 statuses[p.status] = statuses.get(p.status, 0) + 1
             events += [f"step {info.t}: {e}" for e in info.events if not e.startswith("resampled")]
-    return TrialResult(index, np.array(err2), np.array(trace), np.array(secs), statuses, tuple(events))
+    return TrialResult(index, np.array(err2), np.array(trace), np.array(nees_pos), np.array(nees_state),
+                       np.array(secs), statuses, tuple(events))
 
 
 _GUIDANCE: dict[str, Guidance] = {}  # per worker process: build each mission's models once
@@ -91,17 +105,21 @@ _GUIDANCE: dict[str, Guidance] = {}  # per worker process: build each mission's 
 
 def _trial_task(mission: Mission, planner: str, index: int, seed: np.random.SeedSequence) -> TrialResult:
     """What a worker runs: one trial, reusing this process's guidance for the mission."""
-    key = fingerprint(mission)
+    key = fingerprint(mission, planner)
     if key not in _GUIDANCE:
         _GUIDANCE[key] = Guidance(mission.world, mission.dynamics, mission.guidance)
     return run_trial(mission, planner, index, seed, _GUIDANCE[key])
 
 
 # --------------------------------------------------------------------------- trial files
-def fingerprint(mission: Mission) -> str:
+def fingerprint(mission: Mission, planner: str = "") -> str:
     """SHA-256 of everything that determines a trial's result (not the trial count,
-    which does not change trial k, nor where the file lives)."""
-    data = asdict(replace(mission, trials=0, path=Path("."), world_path=Path(".")))
+    which does not change trial k, nor where the file lives).  The baseline's trials do
+    not depend on the sensor, the UAV or the planner settings, which it leaves out."""
+    mission = replace(mission, trials=0, path=Path("."), world_path=Path("."))
+    if planner == "baseline":
+        mission = replace(mission, sensor=None, uav=None, planner=None, description="")
+    data = asdict(mission)
 
     def plain(o):
         return o.tolist() if isinstance(o, np.ndarray) else str(o)
@@ -125,8 +143,8 @@ def _atomic_write(path: Path, data: bytes) -> None:
 
 def save_trial(folder: Path, r: TrialResult) -> None:
     buf = io.BytesIO()
-    np.savez(buf, index=r.index, err2=r.err2, trace=r.trace, seconds=r.seconds,
-             meta=np.array(json.dumps({"statuses": r.statuses, "events": list(r.events)})))
+    np.savez(buf, index=r.index, err2=r.err2, trace=r.trace, nees_pos=r.nees_pos, nees_state=r.nees_state,
+             seconds=r.seconds, meta=np.array(json.dumps({"statuses": r.statuses, "events": list(r.events)})))
     _atomic_write(folder / f"trial-{r.index:05d}.npz", buf.getvalue())
 
 
@@ -138,8 +156,8 @@ def load_trials(folder: Path, indices: range) -> dict[int, TrialResult]:
         if path.exists():
             with np.load(path) as z:
                 meta = json.loads(str(z["meta"]))
-                out[k] = TrialResult(int(z["index"]), z["err2"], z["trace"], z["seconds"], meta["statuses"],
-                                     tuple(meta["events"]))
+                out[k] = TrialResult(int(z["index"]), z["err2"], z["trace"], z["nees_pos"], z["nees_state"],
+                                     z["seconds"], meta["statuses"], tuple(meta["events"]))
     return out
 
 
@@ -147,7 +165,7 @@ def _prepare_folder(out: Path, mission: Mission, planner: str, resume: bool) -> 
     """Create or check ``out``; returns its trials folder."""
     trials = out / "trials"
     manifest = {"mission": str(mission.path), "planner": planner, "steps": mission.steps, "seed": mission.seed,
-                "fingerprint": fingerprint(mission)}
+                "fingerprint": fingerprint(mission, planner), "format": FORMAT}
     path = out / "campaign.json"
     n_done = len(list(trials.glob("trial-*.npz")))
     if path.exists() and n_done:  # a folder without finished trials has nothing to protect
@@ -155,6 +173,9 @@ def _prepare_folder(out: Path, mission: Mission, planner: str, resume: bool) -> 
         if not resume:
             raise CampaignError(f"{out} already holds a campaign ({n_done} trials done): pass --resume to continue "
                                 "it, or choose another --out")
+        if old.get("format") != FORMAT:
+            raise CampaignError(f"{out} holds trials written by another uavsim version (trial format "
+                                f"{old.get('format', 1)}, this one writes {FORMAT}): use another --out")
         if any(old.get(k) != v for k, v in manifest.items() if k != "mission"):
             raise CampaignError(f"{out} holds a different campaign ({old.get('planner')}, seed {old.get('seed')}, "
                                 f"{old.get('steps')} steps, mission {old.get('mission')}): use another --out")
@@ -240,27 +261,49 @@ def _recorded_trial(mission, planner, seeds, record) -> TrialResult:
 
 
 def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: float) -> dict:
-    """The campaign summary (JSON-ready): RMSE per step and target, timing, statuses."""
+    """The campaign summary (JSON-ready): RMSE per step and target, per-trial mean squared
+    errors, NEES consistency, timing, statuses."""
     results = sorted(results, key=lambda r: r.index)
     err2 = np.stack([r.err2 for r in results])  # (trials, steps, M)
-    per_target = np.sqrt(err2.mean(axis=0)).T  # (M, steps)
+    per_target = metrics.rmse_per_target(err2)  # (M, steps)
     rmse = per_target.mean(axis=0)
     secs = np.concatenate([r.seconds for r in results])
     statuses: dict[str, int] = {}
     for r in results:
         for k, v in r.statuses.items():
             statuses[k] = statuses.get(k, 0) + v
+    sensor = mission.planner.fixed_sensors.sensor if planner == "fixed-sensors" else mission.sensor
     return {
         "mission": str(mission.path), "planner": planner, "trials": len(results), "steps": mission.steps,
-        "seed": mission.seed, "truth": mission.truth, "clutter_rate": mission.sensor.clutter_rate,
+        "seed": mission.seed, "truth": mission.truth,
+        "clutter_rate": None if planner == "baseline" else sensor.clutter_rate,
         "filter": mission.filter.kind,
         "particles": mission.filter.particles if mission.filter.kind == "particle" else None,
         "targets": [t.name for t in mission.targets],
         "rmse": rmse.tolist(), "rmse_per_target": per_target.tolist(), "time_avg_rmse": float(rmse.mean()),
         "time_avg_rmse_per_target": per_target.mean(axis=1).tolist(),
+        "trial_mse": err2.mean(axis=(1, 2)).tolist(),
         "mean_trace": np.stack([r.trace for r in results]).mean(axis=0).T.tolist(),
+        "nees": {"pos": metrics.consistency(np.stack([r.nees_pos for r in results]), len(metrics.POS)),
+                 "state": metrics.consistency(np.stack([r.nees_state for r in results]), len(metrics.STATE))},
         "guidance_status": dict(sorted(statuses.items())),
         "events": sum(len(r.events) for r in results),
         "timing": {k: float(np.median(secs[:, i])) for i, k in enumerate(STAGES)},
         "wall_seconds": wall,
     }
+
+
+def with_baseline(summary: dict, base: dict) -> dict:
+    """``summary`` with the no-information baseline of the same trials beside it:
+    its RMSE curve, the ratios planner / baseline of the time-averaged RMSE over all
+    steps and over the second half, and the paired t of the per-trial mean squared
+    errors (positive: the planner is better)."""
+    if base["trial_mse"] and len(base["trial_mse"]) != len(summary["trial_mse"]):
+        raise ValueError("the baseline must run the same trials as the planner")
+    half = len(summary["rmse"]) // 2
+    ratio_half = float(np.mean(summary["rmse"][half:]) / np.mean(base["rmse"][half:]))
+    block = {"rmse": base["rmse"], "rmse_per_target": base["rmse_per_target"], "time_avg_rmse": base["time_avg_rmse"],
+             "ratio": summary["time_avg_rmse"] / base["time_avg_rmse"], "ratio_second_half": ratio_half,
+             "paired_t": metrics.paired_t(summary["trial_mse"], base["trial_mse"]),
+             "nees_pos_inside": base["nees"]["pos"]["inside"]}
+    return {**summary, "baseline": block}

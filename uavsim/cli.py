@@ -119,13 +119,45 @@ def _campaign(args: argparse.Namespace, mission: Mission, planner: str, out: Pat
         raise UsageError(str(exc)) from None
 
 
+def _baseline(args: argparse.Namespace, mission: Mission, out: Path, cache: dict) -> dict:
+    """The no-information baseline of ``mission``'s trials (run once per distinct baseline:
+    it does not depend on the sensor, the UAV or the planner)."""
+    from .campaign import fingerprint
+
+    key = fingerprint(mission, "baseline")
+    if key not in cache:
+        cache[key] = _campaign(args, mission, "baseline", out)
+    return cache[key]
+
+
+def _study(args: argparse.Namespace, mission: Mission, planner: str, out: Path, base_out: Path, cache: dict,
+           record=None) -> dict:
+    """One planner's campaign with the no-information baseline of the same trials beside it."""
+    from .campaign import with_baseline
+
+    summary = _campaign(args, mission, planner, out, record)
+    if planner == "baseline":
+        return summary
+    return with_baseline(summary, _baseline(args, mission, base_out, cache))
+
+
 def _print_summary(s: dict) -> None:
+    clutter = "no sensor" if s["clutter_rate"] is None else f"clutter rate {s['clutter_rate']:g}"
     print(f"planner {s['planner']}: {s['trials']} trials x {s['steps']} steps, seed {s['seed']}, "
-          f"clutter rate {s['clutter_rate']:g}, truth {s['truth']}")
+          f"{clutter}, truth {s['truth']}")
     print(f"  {'target':<8}{'time-avg RMSE m':>17}{'final RMSE m':>14}")
     for name, per in zip(s["targets"], s["rmse_per_target"]):
         print(f"  {name:<8}{np.mean(per):>17.2f}{per[-1]:>14.2f}")
     print(f"  {'all':<8}{s['time_avg_rmse']:>17.2f}{s['rmse'][-1]:>14.2f}")
+    if "baseline" in s:
+        b = s["baseline"]
+        print(f"  {'no info':<8}{b['time_avg_rmse']:>17.2f}{b['rmse'][-1]:>14.2f}   ratio {b['ratio']:.3f} "
+              f"(second half {b['ratio_second_half']:.3f}), paired t {b['paired_t']:.1f}")
+    for key, label in (("pos", "position"), ("state", "state")):
+        n = s["nees"][key]
+        print(f"  NEES {label} (dof {n['dof']}): mean {np.mean(n['mean']):.2f}, 95% band "
+              f"[{n['band'][0]:.2f}, {n['band'][1]:.2f}]: inside {n['inside']:.0%} of steps, "
+              f"below {n['below']:.0%}, above {n['above']:.0%}")
     t = s["timing"]
     print(f"  median s/step: guidance {t['guidance']:.3f}, filter {t['filter']:.3f}, planner {t['planner']:.4f}, "
           f"truth {t['truth']:.3f}, total {t['total']:.3f}; guidance plans {s['guidance_status']}")
@@ -149,16 +181,23 @@ def cmd_run(args: argparse.Namespace) -> int:
         if args.record_particles < 0:
             raise UsageError("--record-particles must be >= 0")
         record = (Path(args.record), args.record_trial, args.record_particles)
-    summary = _campaign(args, mission, planner, out, record)
+    summary = _study(args, mission, planner, out, out / "baseline", {}, record)
     _write_json(out / "summary.json", summary)
     _print_summary(summary)
+    _figures({planner: summary}, out)
     opened = f" and {args.record} (open it with: rerun {args.record})" if record else ""
-    print(f"wrote {out / 'summary.json'}{opened}")
+    print(f"wrote {out / 'summary.json'}, {out / 'rmse.png'}, {out / 'nees.png'}{opened}")
     return 0
 
 
+def _figures(summaries: dict[str, dict], out: Path) -> None:
+    from .plots import nees_plot, rmse_plot
+
+    rmse_plot(summaries, out / "rmse.png")
+    nees_plot(summaries, out / "nees.png")
+
+
 def cmd_compare(args: argparse.Namespace) -> int:
-    from .plots import rmse_plot
     from .sim import PLANNERS
 
     mission = _campaign_mission(args)
@@ -168,13 +207,13 @@ def cmd_compare(args: argparse.Namespace) -> int:
         raise UsageError(f"--planners: unknown {', '.join(unknown) or '(none given)'}; "
                          f"choose from {', '.join(PLANNERS)}")
     out = Path(args.out)
-    results = {}
+    results, cache = {}, {}
     for planner in planners:
-        results[planner] = _campaign(args, mission, planner, out / planner)
+        results[planner] = _study(args, mission, planner, out / planner, out / "baseline", cache)
         _print_summary(results[planner])
     _write_json(out / "compare.json", results)
-    rmse_plot(results, out / "rmse.png")
-    print(f"wrote {out / 'compare.json'} and {out / 'rmse.png'}")
+    _figures(results, out)
+    print(f"wrote {out / 'compare.json'}, {out / 'rmse.png'} and {out / 'nees.png'}")
     return 0
 
 
@@ -208,16 +247,21 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     missions = [with_overrides(load_mission(args.mission, {key: parse_value(v)}), args.steps, args.trials, args.seed)
                 for v in values]  # validate every value before running any
     out = Path(args.out)
-    rows = []
+    rows, cache = [], {}
     for value, mission in zip(values, missions):
         planner = args.planner or mission.planner.name
-        s = _campaign(args, mission, planner, out / f"{key}={value}")
-        _write_json(out / f"{key}={value}" / "summary.json", s)
+        folder = out / f"{key}={value}"
+        s = _study(args, mission, planner, folder, folder / "baseline", cache)
+        _write_json(folder / "summary.json", s)
+        base = s.get("baseline", {})
         rows.append({"key": key, "value": value, "planner": planner, "trials": s["trials"],
                      "time_avg_rmse": s["time_avg_rmse"], "final_rmse": s["rmse"][-1],
+                     "baseline_time_avg_rmse": base.get("time_avg_rmse"), "ratio": base.get("ratio"),
+                     "nees_pos_inside": s["nees"]["pos"]["inside"],
                      **{f"time_avg_rmse_{n}": r for n, r in zip(s["targets"], s["time_avg_rmse_per_target"])},
                      "seconds_per_step": s["timing"]["total"]})
-        print(f"{key} = {value}: time-averaged RMSE {s['time_avg_rmse']:.2f} m, final {s['rmse'][-1]:.2f} m")
+        ratio = f", {base['ratio']:.3f} of the no-information baseline" if base else ""
+        print(f"{key} = {value}: time-averaged RMSE {s['time_avg_rmse']:.2f} m{ratio}, final {s['rmse'][-1]:.2f} m")
     _write_json(out / "sweep.json", rows)
     with open(out / "sweep.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))

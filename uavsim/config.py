@@ -24,7 +24,7 @@ from .sensing import Sensor
 from .targets import Dynamics, Target
 from .world import GoalRegion, Region2D, World, inside_polytopes
 
-PLANNERS = ("optimized", "zigzag", "square", "pentagon", "circle", "fixed-sensors")
+PLANNERS = ("optimized", "zigzag", "square", "pentagon", "circle", "fixed-sensors", "baseline")
 TRUTH_MODES = ("planned", "stochastic")
 _MISSING = object()
 

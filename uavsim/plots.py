@@ -11,37 +11,78 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after choosing the backend)
 
 
-def rmse_plot(summaries: dict[str, dict], path: Path) -> None:
-    """Average position RMSE per time step for each planner: 004 Fig. 2c / 3e."""
-    fig, ax = plt.subplots(figsize=(7, 4), dpi=120)
-    for name, s in summaries.items():
-        ax.plot(range(1, len(s["rmse"]) + 1), s["rmse"], label=f"{name} ({s['time_avg_rmse']:.1f} m)")
-    first = next(iter(summaries.values()))
-    ax.set(xlabel="time step", ylabel="position RMSE (m), mean over targets",
-           title=f"{Path(first['mission']).stem}: {first['trials']} trials, clutter rate {first['clutter_rate']:g}")
-    ax.grid(alpha=0.3)
-    ax.legend()
+def _save(fig, path: Path) -> None:
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
     plt.close(fig)
+
+
+def _title(summaries: dict[str, dict]) -> str:
+    first = next(iter(summaries.values()))
+    rates = sorted({s["clutter_rate"] for s in summaries.values() if s["clutter_rate"] is not None})
+    clutter = f", clutter rate {', '.join(f'{r:g}' for r in rates)}" if rates else ""
+    return f"{Path(first['mission']).stem}: {first['trials']} trials, truth {first['truth']}{clutter}"
+
+
+def rmse_plot(summaries: dict[str, dict], path: Path) -> None:
+    """Average position RMSE per time step for each planner (004 Fig. 2c / 3e), and the
+    no-information baseline of the same trials as a dashed black line (once per distinct
+    baseline)."""
+    fig, ax = plt.subplots(figsize=(7, 4), dpi=120)
+    drawn = set()
+    for name, s in summaries.items():
+        ratio = f", {s['baseline']['ratio']:.2f} x no info" if "baseline" in s else ""
+        ax.plot(range(1, len(s["rmse"]) + 1), s["rmse"], label=f"{name} ({s['time_avg_rmse']:.1f} m{ratio})")
+        b = s.get("baseline")
+        if b is not None and tuple(b["rmse"]) not in drawn:
+            drawn.add(tuple(b["rmse"]))
+            ax.plot(range(1, len(b["rmse"]) + 1), b["rmse"], "k--", lw=1,
+                    label=f"no information ({b['time_avg_rmse']:.1f} m)")
+    ax.set(xlabel="time step", ylabel="position RMSE (m), mean over targets", title=_title(summaries))
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    _save(fig, path)
+
+
+def nees_plot(summaries: dict[str, dict], path: Path) -> None:
+    """Average position NEES per time step (over trials and targets) for each planner,
+    with its two-sided 95% chi-square band shaded: inside the band the filter's covariance
+    agrees with its errors; below it the filter is too cautious, above it overconfident."""
+    fig, ax = plt.subplots(figsize=(7, 4), dpi=120)
+    bands = set()
+    for name, s in summaries.items():
+        n = s["nees"]["pos"]
+        ax.semilogy(range(1, len(n["mean"]) + 1), n["mean"], label=f"{name} ({n['inside']:.0%} of steps inside)")
+        bands.add(tuple(n["band"]))
+    for lo, hi in bands:
+        ax.axhspan(lo, hi, color="0.6", alpha=0.3, lw=0)
+    ax.axhline(2.0, color="k", lw=0.8, ls=":", label="expected value (dof 2)")
+    ax.set(xlabel="time step", ylabel="average position NEES", title=_title(summaries) + " (band: 95%)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    _save(fig, path)
 
 
 def sweep_plot(rows: list[dict], key: str, path: Path) -> None:
-    """Time-averaged position RMSE against the swept value (a line when numeric)."""
+    """Time-averaged position RMSE against the swept value (a line when numeric, else
+    bars), and the no-information baseline of each value dashed."""
     fig, ax = plt.subplots(figsize=(6, 4), dpi=120)
+    rmse = [r["time_avg_rmse"] for r in rows]
+    base = [r["baseline_time_avg_rmse"] for r in rows]
     try:
         x = [float(r["value"]) for r in rows]
-        ax.plot(x, [r["time_avg_rmse"] for r in rows], "o-")
     except ValueError:
-        ax.bar([r["value"] for r in rows], [r["time_avg_rmse"] for r in rows])
+        x = list(range(len(rows)))
+        ax.set_xticks(x, [r["value"] for r in rows])
+    ax.plot(x, rmse, "o-", label=rows[0]["planner"])
+    if all(b is not None for b in base):
+        ax.plot(x, base, "k--", marker=".", lw=1, label="no information")
     ax.set(xlabel=key, ylabel="time-averaged position RMSE (m)",
            title=f"{rows[0]['planner']}, {rows[0]['trials']} trials per value")
     ax.grid(alpha=0.3)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
+    ax.legend()
+    _save(fig, path)
 
 
 def tma_rmse_plot(result: dict, path: Path) -> None:
@@ -61,7 +102,4 @@ def tma_rmse_plot(result: dict, path: Path) -> None:
         ax.grid(alpha=0.3, which="both")
     axes[0].legend()
     fig.suptitle(f"{result['scenario']} (cf. 002 {result['figure']}): {result['runs']} runs")
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
+    _save(fig, path)

@@ -10,7 +10,9 @@ Entities (M targets named as in the mission)::
     targets/<name>/{truth, truth_path, estimate, estimate_path, particles, covariance, plan}
     uav/{position, path, candidates}                     candidates coloured by summed trace
     bearings/{detections, false_alarms}                  rays from the sensor(s)
-    metrics/{error, trace}/<name>, metrics/error/RMSE    scalars
+    metrics/{error, trace, nees}/<name>, metrics/error/RMSE    scalars
+    metrics/nees/{mean, band_lo, band_hi}                position NEES averaged over the targets and
+                                                         its 95% chi-square band (this trial)
     log                                                  text: fallbacks, degenerate updates, resampling
 
 Recording reads the step records only; it draws no random numbers, so a recorded trial
@@ -27,6 +29,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 from scipy.spatial.transform import Rotation
 
+from . import metrics
 from .config import Mission
 from .sim import StepInfo
 
@@ -46,6 +49,7 @@ def blueprint(mission: Mission) -> rrb.Blueprint:
                          rrb.Spatial3DView(name="Top-down", origin="/", eye_controls=top)),
             rrb.Vertical(rrb.TimeSeriesView(name="Position error (m)", origin="/metrics/error"),
                          rrb.TimeSeriesView(name="Covariance trace", origin="/metrics/trace"),
+                         rrb.TimeSeriesView(name="Position NEES", origin="/metrics/nees"),
                          rrb.TextLogView(name="Events", origin="/log")),
             column_shares=[3, 2],
         ),
@@ -98,9 +102,15 @@ class Recorder:
                                     np.full(len(region.vertices) + 1, self.m.uav.altitude)])
             rec.log("world/region", rr.LineStrips3D([ring], colors=[[255, 140, 0]], radii=[1.5]), static=True)
         for name, c in zip(self.names, self.colors):  # plot series in the targets' colours
-            for kind in ("error", "trace"):
+            for kind in ("error", "trace", "nees"):
                 rec.log(f"metrics/{kind}/{name}", rr.SeriesLines(colors=[c], names=[name]), static=True)
         rec.log("metrics/error/RMSE", rr.SeriesLines(colors=[[255, 255, 255]], names=["RMSE"]), static=True)
+        rec.log("metrics/nees/mean", rr.SeriesLines(colors=[[255, 255, 255]], names=["mean over targets"]),
+                static=True)
+        for bound in ("band_lo", "band_hi"):
+            rec.log(f"metrics/nees/{bound}", rr.SeriesLines(colors=[[128, 128, 128]], names=[f"95% {bound[5:]}"]),
+                    static=True)
+        self.band = metrics.nees_band(len(self.names), len(metrics.POS))
         if self.planner == "fixed-sensors":
             rec.log("world/sensors", rr.Points3D(self.m.planner.fixed_sensors.positions, radii=[8.0],
                                                  colors=[[20, 20, 20]], labels=["S1", "S2", "S3"]), static=True)
@@ -120,6 +130,12 @@ class Recorder:
             rec.log(f"metrics/error/{name}", rr.Scalars(e))
             rec.log(f"metrics/trace/{name}", rr.Scalars(tr))
         rec.log("metrics/error/RMSE", rr.Scalars(np.sqrt(np.mean(err**2))))  # over the targets, this trial
+        nees = metrics.state_nees(info.mean, info.cov, info.truth, metrics.POS)
+        for name, value in zip(self.names, nees):
+            rec.log(f"metrics/nees/{name}", rr.Scalars(value))
+        rec.log("metrics/nees/mean", rr.Scalars(nees.mean()))
+        rec.log("metrics/nees/band_lo", rr.Scalars(self.band[0]))
+        rec.log("metrics/nees/band_hi", rr.Scalars(self.band[1]))
         for event in info.events:
             level = rr.TextLogLevel.INFO if event.startswith("resampled") else rr.TextLogLevel.WARN
             rec.log("log", rr.TextLog(event, level=level))
@@ -152,7 +168,7 @@ class Recorder:
         return info.particles[:, idx, :3]
 
     def _uav(self, info: StepInfo) -> None:
-        if self.planner == "fixed-sensors":
+        if self.planner in ("fixed-sensors", "baseline"):
             return
         rec = self.rec
         self.uav_path.append(info.observers[0])

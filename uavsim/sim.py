@@ -9,15 +9,22 @@ Each step t -> t+1:
 3. **UAV**: ``optimized`` takes the admissible grid move of least summed predicted
    covariance trace (Eq. 12-13); a manoeuvre flies its loop; ``fixed-sensors`` has three
    static sensors instead of a UAV;
-4. **truth**: ``planned`` (the paper): targets follow the noise-free plan computed from
-   the prior means at t = 1 (re-planned noise-free from its end if a mission outlasts the
-   horizon); ``stochastic``: targets are re-planned on their true states and move by
-   Eq. (1) with process noise;
+4. **truth**: every trial draws each target's true initial state from its prior
+   ``N(mu_0, Sigma_0)`` (restricted to free space: a start inside an obstacle is drawn
+   again), then ``planned`` (the paper, Sec. VI-B): the target follows the noise-free
+   guidance plan computed from that drawn start at t = 1 (re-planned noise-free from its
+   end if a mission outlasts the horizon); ``stochastic``: targets are re-planned on
+   their true states every step and move by Eq. (1) with process noise;
 5. **sense and update** (Eq. 4, 9b-11), then systematic resampling when the ESS is low.
 
-Randomness: a trial gets one ``SeedSequence``; it spawns separate streams for the truth,
-the sensor, the filter and the UAV start, so trial k sees the same truth and the same
-prior particles whichever planner runs (common random numbers across planners).
+The filter starts from the prior, never from the drawn truth.  The ``baseline`` planner
+has no sensor at all: its filter only predicts, so it measures what the prior and the
+guidance model alone know (the no-information baseline of every study).
+
+Randomness: a trial gets one ``SeedSequence``; it spawns separate streams for the truth's
+process noise, the sensor, the filter, the UAV start and the truth's initial state, so
+trial k sees the same truth and the same prior particles whichever planner runs (common
+random numbers across planners and the baseline).
 """
 
 from __future__ import annotations
@@ -34,7 +41,8 @@ from .planning import decide, gaussian_traces, pseudo_traces
 from .sensing import Scan, observe
 from .uav import MANOEUVRES, admissible, candidates, manoeuvre_route
 
-PLANNERS = ("optimized", *MANOEUVRES, "fixed-sensors")
+PLANNERS = ("optimized", *MANOEUVRES, "fixed-sensors", "baseline")
+START_DRAWS = 1000  # prior draws per target to find a free-space true start
 STAGES = ("guidance", "filter", "planner", "truth", "total")
 
 
@@ -74,12 +82,16 @@ class Simulation:
 
     # ------------------------------------------------------------------ reset
     def reset(self, seed: np.random.SeedSequence | int) -> StepInfo:
-        ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-        truth_ss, sensor_ss, filter_ss, uav_ss = ss.spawn(4)
+        if isinstance(seed, np.random.SeedSequence):  # a fresh copy: spawning twice from one object differs
+            ss = np.random.SeedSequence(seed.entropy, spawn_key=seed.spawn_key, pool_size=seed.pool_size)
+        else:
+            ss = np.random.SeedSequence(seed)
+        truth_ss, sensor_ss, filter_ss, uav_ss, start_ss = ss.spawn(5)
         self.rng_truth, self.rng_sensor, self.rng_filter = map(np.random.default_rng, (truth_ss, sensor_ss, filter_ss))
         m = self.m
         means0 = np.array([t.mean0 for t in m.targets])
         covs0 = np.array([t.cov0 for t in m.targets])
+        self.truth = self._true_start(np.random.default_rng(start_ss), means0, covs0)
         if m.filter.kind == "particle":
             self.est = ParticleFilter.from_priors(self.rng_filter, means0, covs0, m.filter.particles)
         else:
@@ -88,11 +100,7 @@ class Simulation:
         self.plans: list[Plan | None] = [None] * len(m.targets)
         self.truth_plans: list[Plan | None] = [None] * len(m.targets)
         if m.truth == "planned":
-            self.truth = means0.copy()
-            self.truth_path = self._noise_free_paths(means0)
-        else:
-            chol = np.linalg.cholesky(covs0)
-            self.truth = means0 + np.einsum("mij,mj->mi", chol, self.rng_truth.standard_normal(means0.shape))
+            self.truth_path = self._noise_free_paths(self.truth)
         self.uav = self._start(np.random.default_rng(uav_ss))
         self.route = manoeuvre_route(self.planner, self.uav, m.planner.manoeuvres, m.uav, m.world, m.path) \
             if self.planner in MANOEUVRES else None
@@ -100,11 +108,24 @@ class Simulation:
         return StepInfo(0, self.truth.copy(), mean, cov, self._observers(), [], [], None, None, {},
                         particles=self._particles())
 
+    def _true_start(self, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray) -> np.ndarray:
+        """(M, 6) true initial states: per target the first of ``START_DRAWS`` draws from
+        ``N(mean, cov)`` whose position is outside every obstacle (a fixed number of draws,
+        so the stream does not depend on where the obstacles are)."""
+        z = rng.standard_normal((START_DRAWS, *means.shape))  # (D, M, 6)
+        draws = means + np.einsum("mij,dmj->dmi", np.linalg.cholesky(covs), z)
+        free = ~self.m.world.in_obstacle(draws[..., :3])  # (D, M)
+        if not free.any(axis=0).all():
+            j = int(np.argmin(free.any(axis=0)))
+            raise MissionError(self.m.path, f"targets[{j}].cov0_si",
+                               f"none of {START_DRAWS} draws from the prior is outside the obstacles")
+        return draws[np.argmax(free, axis=0), np.arange(len(means))]
+
     def _start(self, rng: np.random.Generator, tries: int = 10_000) -> np.ndarray:
         """The UAV's start: the mission's, or uniform in the region (area) at altitude h,
         outside obstacles (rejection sampling, in batches; fixed draw count per batch)."""
         uav, world = self.m.uav, self.m.world
-        if not uav.random_start or self.planner == "fixed-sensors":
+        if not uav.random_start or self.planner in ("fixed-sensors", "baseline"):
             return uav.start.copy()
         lo, hi = world.area_lo[:2], world.area_hi[:2]
         if uav.region is not None:
@@ -131,6 +152,8 @@ class Simulation:
     def _observers(self) -> np.ndarray:
         if self.planner == "fixed-sensors":
             return self.m.planner.fixed_sensors.positions
+        if self.planner == "baseline":
+            return np.zeros((0, 3))
         return self.uav[None, :]
 
     # ------------------------------------------------------------------ step
@@ -172,6 +195,8 @@ class Simulation:
 
     def _update(self, scans: list[Scan], observers: np.ndarray, sensor, events: list[str]) -> None:
         m = self.m
+        if not scans:  # the baseline: no sensor, the prediction is the posterior
+            return
         if isinstance(self.est, PseudoLinearTracks):  # clutter-free: each sensor's scan in turn
             for scan, o in zip(scans, observers):
                 for j in np.flatnonzero(self.est.update(scan, o, sensor.sigma)):

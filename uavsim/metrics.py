@@ -1,0 +1,74 @@
+"""What a Monte-Carlo study measures: RMSE, the no-information ratio, NEES consistency.
+
+* **RMSE** (004_22b452551a772073.txt Sec. VI-B): at step t,
+  ``eps_t = sqrt(mean_n |x^pos_hat_t(n) - x^pos_t(n)|^2)`` over the N trials, (x, y)
+  positions, per target; studies average it over the targets.
+* **No-information ratio**: a planner's time-averaged RMSE over that of the same filter
+  without any measurement on the same trials (common random numbers).  Below 1 the
+  bearings help; a number that would be the same with the sensor off is not a tracking
+  result.  The paired t-statistic is over the per-trial mean squared errors.
+* **NEES** (Bar-Shalom, Li & Kirubarajan 2001, Sec. 5.4.2): ``e' P^-1 e`` of the posterior
+  mean error e against the posterior covariance P.  For a consistent estimator it is
+  chi-square with d degrees of freedom; the average of n independent values (trials x
+  targets) lies in ``[chi2_{0.025}(n d), chi2_{0.975}(n d)] / n`` with probability 0.95.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import stats
+
+POS = (0, 1)  # (x, y): the position error of Sec. VI-B
+STATE = (0, 1, 2, 3, 4, 5)  # the full state [p, v]
+
+
+def nees(err: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """``e' P^-1 e`` for errors ``(..., d)`` and covariances ``(..., d, d)``; shape ``(...)``.
+
+    A singular covariance (a collapsed particle set) uses the pseudo-inverse, so the value
+    stays finite: the error in the directions the filter is sure of is then not counted,
+    which the chi-square band of the average will show as too small a NEES."""
+    rhs = err[..., None]
+    try:
+        sol = np.linalg.solve(cov, rhs)
+    except np.linalg.LinAlgError:
+        sol = np.linalg.pinv(cov, hermitian=True) @ rhs
+    return np.einsum("...i,...i->...", err, sol[..., 0])
+
+
+def state_nees(mean: np.ndarray, cov: np.ndarray, truth: np.ndarray, dims=POS) -> np.ndarray:
+    """NEES over the state components ``dims`` for means ``(M, 6)``, covariances
+    ``(M, 6, 6)`` and true states ``(M, 6)``; shape ``(M,)``."""
+    d = np.asarray(dims)
+    return nees(mean[:, d] - truth[:, d], cov[:, d[:, None], d])
+
+
+def nees_band(n: int, dof: int, level: float = 0.95) -> tuple[float, float]:
+    """Two-sided ``level`` band of the average of n independent chi-square(dof) values."""
+    a = (1.0 - level) / 2.0
+    return float(stats.chi2.ppf(a, n * dof) / n), float(stats.chi2.ppf(1.0 - a, n * dof) / n)
+
+
+def rmse_per_target(err2: np.ndarray) -> np.ndarray:
+    """``(M, steps)`` RMSE from squared position errors ``(trials, steps, M)``."""
+    return np.sqrt(err2.mean(axis=0)).T
+
+
+def paired_t(a: np.ndarray, b: np.ndarray) -> float:
+    """Paired t-statistic of ``b - a`` over trials (positive: a is smaller); 0 for one trial."""
+    diff = np.asarray(b, float) - np.asarray(a, float)
+    if len(diff) < 2:
+        return 0.0
+    sd = diff.std(ddof=1)
+    return float(diff.mean() / (sd / np.sqrt(len(diff)))) if sd > 0 else 0.0
+
+
+def consistency(values: np.ndarray, dof: int, level: float = 0.95) -> dict:
+    """Per-step average NEES of ``values (trials, steps, M)``, its band and the share of
+    steps inside it (JSON-ready)."""
+    trials, _, m = values.shape
+    lo, hi = nees_band(trials * m, dof, level)
+    mean = values.mean(axis=(0, 2))
+    return {"dof": dof, "mean": mean.tolist(), "band": [lo, hi], "level": level,
+            "inside": float(np.mean((mean >= lo) & (mean <= hi))),
+            "below": float(np.mean(mean < lo)), "above": float(np.mean(mean > hi))}
