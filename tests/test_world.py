@@ -3,7 +3,14 @@
 import numpy as np
 import pytest
 
-from uavsim.world import Region2D, cuboid_halfspaces, inside_polytopes, segments_hit_polytopes
+from uavsim.world import (
+    Region2D,
+    cuboid_halfspaces,
+    free_space,
+    ground_footprints,
+    inside_polytopes,
+    segments_hit_polytopes,
+)
 
 LO, HI = np.array([1.0, 2.0, 0.0]), np.array([3.0, 5.0, 4.0])
 
@@ -85,3 +92,66 @@ def test_region_polygon_and_box():
     np.testing.assert_array_equal(tri.contains(pts), [True, True, False, False])
     box = Region2D.box(np.array([0.0, 0.0]), np.array([2.0, 1.0]))
     np.testing.assert_array_equal(box.contains(np.array([[2, 1], [2.1, 0.5], [1, -0.1]])), [True, False, False])
+
+
+# --------------------------------------------------------------------------- ground free space
+AREA_LO, AREA_HI = np.array([0.0, 0.0]), np.array([100.0, 100.0])
+
+
+def test_ground_footprints_by_hand():
+    """margin 9, band 1: kept when z_min - 9 < -1 and z_max + 9 > 1 (004 via the guidance model)."""
+    lo = np.array([[0, 0, 0], [0, 0, 5], [0, 0, 15], [0, 0, -30], [0, 0, 7.9]], dtype=float)
+    hi = np.array([[10, 20, 60], [10, 20, 60], [10, 20, 60], [10, 20, -12], [10, 20, 60]], dtype=float)
+    kept, f_lo, f_hi = ground_footprints(lo, hi, 9.0)
+    np.testing.assert_array_equal(kept, [0, 1, 4])
+    np.testing.assert_array_equal(f_lo, [[-9, -9]] * 3)
+    np.testing.assert_array_equal(f_hi, [[19, 29]] * 3)
+
+
+def _space(rects, regions=()):
+    r = np.array(rects, dtype=float).reshape(-1, 4)
+    return free_space(r[:, :2], r[:, 2:], AREA_LO, AREA_HI, regions)
+
+
+GOAL = (np.array([80.0, 45.0]), np.array([90.0, 55.0]))
+
+
+@pytest.mark.parametrize("rects, connected", [
+    ([[40, 0, 60, 45], [40, 55, 60, 100]], True),  # a wall with a 10 m corridor
+    ([[40, 0, 60, 49.9], [40, 50, 60, 100]], True),  # a 0.1 m corridor is still a corridor
+    ([[40, 0, 60, 50], [40, 50, 60, 100]], False),  # the walls touch along y = 50: closed
+    ([[40, 0, 60, 50], [40, 40, 60, 100]], False),  # the walls overlap
+    ([[40, 0, 60, 100]], False),  # one wall touching the area's bottom and top edges
+    ([[40, 0.1, 60, 100]], True),  # 0.1 m left between the wall and the area's edge
+    ([[40, 0, 50, 50], [50, 50, 60, 100]], False),  # touching at the corner (50, 50) only
+    ([[40, 0, 49.9, 50], [50, 50, 60, 100]], True),  # 0.1 m apart at that corner
+])
+def test_connectivity_hand_cases(rects, connected):
+    space = _space(rects, [GOAL])
+    start = np.array([10.0, 50.0])
+    assert space.is_free(start)
+    goal_labels = space.region_labels(*GOAL)
+    assert goal_labels
+    assert bool(space.start_labels(start) & goal_labels) == connected
+    if not connected:  # every wall separates the two sides here
+        sep = np.intersect1d(space.border(space.start_labels(start)), space.border(goal_labels))
+        np.testing.assert_array_equal(sep, np.arange(len(rects)))
+
+
+def test_goal_region_inside_an_inflated_obstacle():
+    space = _space([[70, 40, 95, 60], [20, 20, 30, 30]], [GOAL])
+    assert space.region_labels(*GOAL) == set()
+    np.testing.assert_array_equal(space.covering(*GOAL), [0])
+    half = _space([[70, 40, 85, 60]], [GOAL])  # the goal's east part stays free
+    assert half.region_labels(*GOAL) == half.start_labels(np.array([10.0, 50.0]))
+
+
+def test_enclosed_goal_and_a_start_inside_a_margin():
+    """A goal walled in on four sides; a start inside one wall can leave it to either side."""
+    walls = [[70, 35, 100, 40], [70, 60, 100, 65], [70, 35, 75, 65], [95, 35, 100, 65]]
+    space = _space(walls, [GOAL])
+    outside, inside = space.start_labels(np.array([10.0, 50.0])), space.region_labels(*GOAL)
+    assert outside and inside and not outside & inside
+    in_wall = space.start_labels(np.array([72.0, 50.0]))  # inside the west wall
+    assert not space.is_free(np.array([72.0, 50.0]))
+    assert in_wall == outside | inside

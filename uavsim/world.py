@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from scipy import ndimage
 
 # Outward normals of an axis-aligned cuboid, in the order +x, -x, +y, -y, +z, -z.
 CUBOID_NORMALS = np.array(
@@ -194,3 +195,139 @@ class World:
             return np.zeros(shape, dtype=bool)
         hit = segments_hit_polytopes(np.asarray(p0), np.asarray(p1), self.normals, self.offsets)
         return hit.any(axis=-1)
+
+
+# --------------------------------------------------------------------------- ground free space
+GROUND_BAND_M = 1.0  # |z| band of ground targets; the guidance model drops obstacles that miss it
+
+
+def ground_footprints(
+    obstacle_lo: np.ndarray, obstacle_hi: np.ndarray, margin: float, band: float = GROUND_BAND_M
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The obstacles a ground target must avoid, as inflated (x, y) rectangles.
+
+    Every obstacle is inflated by ``margin`` per axis (the guidance model's
+    ``delta = v_max dt / 2 + clearance``); one whose inflated z-slab
+    ``[z_min - margin, z_max + margin]`` does not cover the ground band ``|z| <= band``
+    cannot meet a ground target and is dropped (as :mod:`uavsim.guidance.model` does).
+
+    Parameters
+    ----------
+    obstacle_lo, obstacle_hi : (n, 3) cuboid corners; margin : delta (m).
+
+    Returns
+    -------
+    kept : (k,) indices of the obstacles kept; lo, hi : (k, 2) inflated footprints.
+    """
+    obstacle_lo, obstacle_hi = np.reshape(obstacle_lo, (-1, 3)), np.reshape(obstacle_hi, (-1, 3))
+    kept = np.flatnonzero((obstacle_lo[:, 2] - margin < -band) & (obstacle_hi[:, 2] + margin > band))
+    return kept, obstacle_lo[kept, :2] - margin, obstacle_hi[kept, :2] + margin
+
+
+@dataclass(frozen=True, eq=False)
+class FreeSpace:
+    """Exact connectivity of the plane area minus closed axis-aligned rectangles.
+
+    The rectangles' edges (clipped to the area), the area's and any marked regions'
+    edges cut the area into a compressed grid of cells.  No rectangle edge crosses a
+    cell, so the open cell lies wholly inside an open rectangle or wholly outside every
+    closed one: each cell is blocked or free, with no raster error.  Free cells are
+    joined through shared edges of positive length (4-neighbours); two cells meeting at
+    a corner are not joined, so closed rectangles touching at a corner or along an edge
+    close the passage between them (a passage of zero width).
+
+    Attributes
+    ----------
+    xs, ys : (nx + 1,), (ny + 1,) grid lines; owner : (nx, ny) index of the first
+    rectangle covering each cell, -1 if free; labels : (nx, ny) free component of each
+    cell (1, 2, ...), 0 if blocked; blocked_labels : (nx, ny) component of blocked cells;
+    lo, hi : (n, 2) the rectangles.
+    """
+
+    xs: np.ndarray
+    ys: np.ndarray
+    owner: np.ndarray
+    labels: np.ndarray
+    blocked_labels: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+    def _cell(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        p = np.asarray(points, dtype=float)
+        i = np.clip(np.searchsorted(self.xs, p[..., 0], side="right") - 1, 0, len(self.xs) - 2)
+        j = np.clip(np.searchsorted(self.ys, p[..., 1], side="right") - 1, 0, len(self.ys) - 2)
+        return i, j
+
+    def is_free(self, points: np.ndarray) -> np.ndarray:
+        """(...,) bool: point outside every closed rectangle."""
+        p = np.asarray(points, dtype=float)[..., None, :2]
+        return ~np.any(np.all((p >= self.lo) & (p <= self.hi), axis=-1), axis=-1)
+
+    def start_labels(self, point: np.ndarray) -> set[int]:
+        """Free components a path from ``point (2,)`` can enter.
+
+        A free point is in one component.  A point inside the rectangles (a start inside
+        a safety margin) may leave them: every free component bordering the blocked
+        component around it counts.
+        """
+        i, j = self._cell(point)
+        if self.is_free(point) or self.labels[i, j]:
+            return {int(self.labels[i, j])} - {0}
+        around = _dilate(self.blocked_labels == self.blocked_labels[i, j])
+        return set(np.unique(self.labels[around]).tolist()) - {0}
+
+    def region_labels(self, lo: np.ndarray, hi: np.ndarray) -> set[int]:
+        """Free components meeting the open rectangle ``(lo, hi)`` (its edges must be grid lines)."""
+        cells = self._cells_in(lo, hi)
+        return set(np.unique(self.labels[cells]).tolist()) - {0}
+
+    def covering(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Indices of the rectangles overlapping the open rectangle ``(lo, hi)``."""
+        return np.flatnonzero(np.all((self.lo < hi) & (self.hi > lo), axis=1))
+
+    def border(self, labels: set[int]) -> np.ndarray:
+        """Indices of the rectangles whose cells touch the free components ``labels``."""
+        near = _dilate(np.isin(self.labels, list(labels))) & (self.owner >= 0)
+        return np.unique(self.owner[near])
+
+    def _cells_in(self, lo, hi) -> np.ndarray:
+        cx, cy = 0.5 * (self.xs[1:] + self.xs[:-1]), 0.5 * (self.ys[1:] + self.ys[:-1])
+        return ((cx > lo[0]) & (cx < hi[0]))[:, None] & ((cy > lo[1]) & (cy < hi[1]))[None, :]
+
+
+def _dilate(mask: np.ndarray) -> np.ndarray:
+    """The cells of ``mask`` and their 4-neighbours (shared edge of positive length)."""
+    out = mask.copy()
+    out[1:] |= mask[:-1]
+    out[:-1] |= mask[1:]
+    out[:, 1:] |= mask[:, :-1]
+    out[:, :-1] |= mask[:, 1:]
+    return out
+
+
+def free_space(
+    lo: np.ndarray, hi: np.ndarray, area_lo: np.ndarray, area_hi: np.ndarray, regions=()
+) -> FreeSpace:
+    """The compressed grid of :class:`FreeSpace` and its connected components.
+
+    Parameters
+    ----------
+    lo, hi : (n, 2) closed rectangles (e.g. from :func:`ground_footprints`).
+    area_lo, area_hi : (2,) the area (paths stay inside it).
+    regions : (lo, hi) pairs whose edges become grid lines too (goal regions), so that
+        :meth:`FreeSpace.region_labels` is exact for them.
+    """
+    lo, hi = np.reshape(lo, (-1, 2)).astype(float), np.reshape(hi, (-1, 2)).astype(float)
+    a_lo, a_hi = np.asarray(area_lo, dtype=float)[:2], np.asarray(area_hi, dtype=float)[:2]
+    marks = [np.clip(lo, a_lo, a_hi), np.clip(hi, a_lo, a_hi), a_lo[None], a_hi[None]]
+    marks += [np.clip(np.reshape(r, (1, 2)), a_lo, a_hi) for pair in regions for r in pair]
+    pts = np.vstack(marks)
+    xs, ys = np.unique(pts[:, 0]), np.unique(pts[:, 1])
+    cx, cy = 0.5 * (xs[1:] + xs[:-1]), 0.5 * (ys[1:] + ys[:-1])
+    inside = (((cx[:, None] > lo[:, 0]) & (cx[:, None] < hi[:, 0]))[:, None, :]
+              & ((cy[:, None] > lo[:, 1]) & (cy[:, None] < hi[:, 1]))[None, :, :])  # (nx, ny, n)
+    blocked = inside.any(axis=-1)
+    owner = np.where(blocked, np.argmax(inside, axis=-1) if len(lo) else 0, -1)
+    labels, _ = ndimage.label(~blocked)  # default structure: 4-connectivity
+    blocked_labels, _ = ndimage.label(blocked)
+    return FreeSpace(xs, ys, owner, labels, blocked_labels, lo, hi)
