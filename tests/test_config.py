@@ -1,6 +1,7 @@
 """Mission and world validation: every bad input names file and key and exits 2."""
 
 import math
+import os
 import re
 import subprocess
 import sys
@@ -169,3 +170,112 @@ def test_cli_subprocess_has_no_traceback(tmp_path):
     assert proc.returncode == 2
     assert proc.stdout == ""
     assert proc.stderr == f"error: {path}: sensor.p_detect: must be <= 1, got 2.0\n"
+
+
+# --------------------------------------------------------------------------- area, sensors, reachability
+OBSTACLE_WORLDS = [
+    (wsub("max_m = [450.0, 600.0, 60.0]", "max_m = [1050.0, 600.0, 60.0]"), "obstacles[0].max_m",
+     "obstacle 'A' [300, 450, 0]..[1050, 600, 60] extends outside the area [0, 0, 0]..[1000, 1000, 1000]: "
+     "50 m beyond x max"),
+    (wsub("min_m = [150.0, 250.0, 0.0]", "min_m = [-20.0, 250.0, -5.0]"), "obstacles[2].min_m",
+     "obstacle 'C' [-20, 250, -5]..[300, 350, 50] extends outside the area [0, 0, 0]..[1000, 1000, 1000]: "
+     "20 m below x min, 5 m below z min"),
+    (wsub("min_m = [300.0, 450.0, 0.0]\nmax_m = [450.0, 600.0, 60.0]",
+          "min_m = [1300.0, 450.0, 0.0]\nmax_m = [1450.0, 600.0, 60.0]"), "obstacles[0].min_m",
+     "obstacle 'A' [1300, 450, 0]..[1450, 600, 60] lies entirely outside the area"),
+]
+
+
+@pytest.mark.parametrize("text, key, message", OBSTACLE_WORLDS, ids=[c[1] for c in OBSTACLE_WORLDS])
+def test_obstacle_outside_the_area(tmp_path, capsys, text, key, message):
+    path = write_case(tmp_path, world=text)
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {tmp_path / 'w.toml'}: {key}: {message}") and err.count("\n") == 1
+
+
+SENSORS = "positions_m = [[150.0, 200.0], [800.0, 200.0], [500.0, 900.0]]\n"
+MAST = '[[obstacles]]\nname = "mast"\nmin_m = [490.0, 890.0, 0.0]\nmax_m = [510.0, 910.0, 200.0]\n\n'
+
+
+def test_fixed_sensors_outside_the_area_or_in_an_obstacle(tmp_path, capsys):
+    path = write_case(tmp_path, mission=sub(SENSORS, SENSORS.replace("[500.0, 900.0]", "[500.0, 1200.0]")))
+    assert main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err == (f"error: {path}: planner.fixed_sensors.positions_m: fixed sensor 2 at "
+                                       "[500, 1200] is outside the area [0, 0]..[1000, 1000]\n")
+    path = write_case(tmp_path, mission=sub(SENSORS, SENSORS.replace("[150.0, 200.0]", "[375.0, 525.0]")))
+    assert main(["validate", str(path)]) == 2
+    assert "fixed sensor 0 at [375, 525] is inside obstacle 'A'" in capsys.readouterr().err
+
+
+def test_default_fixed_sensors_are_checked_and_named_as_defaults(tmp_path, capsys):
+    """A world 880 m deep: the default sensor (500, 900), which applies when the mission
+    gives none, is outside it; the message says so and names the key to set."""
+    mission = sub(SENSORS, "").replace("925.0, 0.0]", "825.0, 0.0]")
+    path = write_case(tmp_path, mission=mission, world=wsub("max_m = [1000.0, 1000.0, 1000.0]",
+                                                            "max_m = [1000.0, 880.0, 1000.0]"))
+    assert main(["validate", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {path}: planner.fixed_sensors.positions_m: the default fixed-sensor position "
+                          "[500, 900] (defaults [150, 200], [800, 200], [500, 900], "
+                          "used when the mission gives none) "
+                          "is outside the area [0, 0]..[1000, 880]: set planner.fixed_sensors.positions_m")
+    world = WORLD_TEXT.replace("[[obstacles]]", MAST + "[[obstacles]]", 1)
+    path = write_case(tmp_path, mission=sub(SENSORS, ""), world=world)
+    assert main(["validate", str(path)]) == 2
+    assert "the default fixed-sensor position [500, 900]" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("which", ["mission", "world"])
+def test_toml_nested_50000_deep(tmp_path, capsys, which):
+    deep = "a = " + "[" * 50_000 + "]" * 50_000 + "\n"
+    path = write_case(tmp_path, **{which: deep})
+    assert main(["validate", str(path)]) == 2
+    bad = path if which == "mission" else tmp_path / "w.toml"
+    assert capsys.readouterr().err == f"error: {bad}: (file): not valid TOML: arrays or tables nested too deeply\n"
+
+
+def ring(gap_m: float) -> str:
+    """Four walls round the goal [450, 550] x [100, 200], 1 m thick, 60 m from it; the
+    north wall has a gap of ``gap_m`` (between the original walls)."""
+    walls = [(389, 39, 611, 40), (389, 39, 390, 261), (610, 39, 611, 261),
+             (389, 260, 500 - gap_m / 2, 261), (500 + gap_m / 2, 260, 611, 261)]
+    return WORLD_TEXT + "".join(f'\n[[obstacles]]\nname = "W{i}"\nmin_m = [{a}, {b}, 0.0]\nmax_m = [{c}, {d}, 30.0]\n'
+                                for i, (a, b, c, d) in enumerate(walls))
+
+
+def test_enclosed_goal_is_reported_at_validation(tmp_path, capsys):
+    """Walls inflated by delta = 16 * 1 / 2 + 1 = 9 m: a gap of 2 delta = 18 m closes
+    (the inflated walls touch), 19 m leaves a 1 m corridor."""
+    path = write_case(tmp_path, world=ring(18.0))
+    assert main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err == (
+        f"error: {path}: targets[0].goal: goal region 'goal' cannot be reached from target 'T1' at [281, 925]: "
+        "obstacles 'W0', 'W1', 'W2', 'W3', 'W4' (inflated by 9 m = speed_max_mps * dt_s / 2 + clearance_m) "
+        "close every path\n")
+    assert main(["validate", str(write_case(tmp_path, world=ring(19.0)))]) == 0
+    path = write_case(tmp_path, world=ring(19.0), mission=sub("clearance_m = 1.0", "clearance_m = 1.5"))
+    assert main(["validate", str(path)]) == 2  # 10 m margins close the 19 m gap
+    assert "(inflated by 9.5 m" in capsys.readouterr().err
+
+
+def test_goal_inside_inflated_obstacles(tmp_path, capsys):
+    world = wsub("size_m = [100.0, 100.0]", "size_m = [10.0, 10.0]") + (
+        '\n[[obstacles]]\nname = "P"\nmin_m = [490.0, 130.0, 0.0]\nmax_m = [497.0, 170.0, 30.0]\n'
+        '\n[[obstacles]]\nname = "Q"\nmin_m = [503.0, 130.0, 0.0]\nmax_m = [510.0, 170.0, 30.0]\n')
+    path = write_case(tmp_path, world=world)
+    assert main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err == (
+        f"error: {path}: targets[0].goal: goal region 'goal' lies entirely inside obstacles 'P', 'Q' "
+        "(inflated by 9 m = speed_max_mps * dt_s / 2 + clearance_m): no plan can end in it\n")
+
+
+def test_mission_path_is_a_folder_or_unreadable(tmp_path, capsys):
+    assert main(["validate", str(tmp_path)]) == 2
+    assert capsys.readouterr().err == f"error: {tmp_path}: (file): is a directory, not a TOML file\n"
+    path = write_case(tmp_path)
+    if os.geteuid() == 0:
+        pytest.skip("root reads files whatever their mode")
+    path.chmod(0)
+    assert main(["validate", str(path)]) == 2
+    assert capsys.readouterr().err == f"error: {path}: (file): cannot read: Permission denied\n"

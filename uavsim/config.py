@@ -22,8 +22,9 @@ import numpy as np
 from .estimators.plkf import FILTERS
 from .sensing import Sensor
 from .targets import Dynamics, Target
-from .world import GoalRegion, Region2D, World, inside_polytopes
+from .world import GoalRegion, Region2D, World, free_space, ground_footprints, inside_polytopes
 
+DEFAULT_FIXED_SENSORS = [[150.0, 200.0], [800.0, 200.0], [500.0, 900.0]]  # 004 Sec. VI-B, a 1 km area
 PLANNERS = ("optimized", "zigzag", "square", "pentagon", "circle", "fixed-sensors", "baseline")
 TRUTH_MODES = ("planned", "stochastic")
 _MISSING = object()
@@ -187,6 +188,10 @@ def _load_toml(path: Path, referrer: tuple[Path, str] | None = None) -> dict[str
         raise MissionError(path, "(file)", f"not valid TOML: {exc}") from None
     except UnicodeDecodeError:
         raise MissionError(path, "(file)", "not valid TOML: not UTF-8 text") from None
+    except RecursionError:
+        raise MissionError(path, "(file)", "not valid TOML: arrays or tables nested too deeply") from None
+    except OSError as exc:  # unreadable (permission), a broken device, ...
+        raise MissionError(path, "(file)", f"cannot read: {exc.strerror or exc}") from None
 
 
 # --------------------------------------------------------------------------- records
@@ -307,6 +312,7 @@ def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> Wo
         o_lo, o_hi = t.array("min_m", (3,)), t.array("max_m", (3,))
         if np.any(o_hi <= o_lo):
             t.fail("max_m", f"must exceed min_m in every axis, got min {o_lo.tolist()} max {o_hi.tolist()}")
+        _check_obstacle_in_area(t, names[-1], o_lo, o_hi, lo, hi)
         t.finish()
         obs_lo.append(o_lo), obs_hi.append(o_hi)
 
@@ -333,6 +339,23 @@ def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> Wo
     return world
 
 
+def _check_obstacle_in_area(t: _Table, name: str, o_lo, o_hi, lo, hi) -> None:
+    """An obstacle must lie inside the area: name it and say by how much it overhangs."""
+    area = f"the area {_fmt(lo)}..{_fmt(hi)}"
+    if np.any(o_hi <= lo) or np.any(o_lo >= hi):
+        t.fail("min_m", f"obstacle '{name}' {_fmt(o_lo)}..{_fmt(o_hi)} lies entirely outside {area}")
+    below, above = lo - o_lo, o_hi - hi
+    if np.any(below > 0) or np.any(above > 0):
+        parts = [f"{d:g} m {side} {axis} {end}" for ds, side, end in ((below, "below", "min"), (above, "beyond", "max"))
+                 for axis, d in zip("xyz", ds) if d > 0]
+        t.fail("max_m" if np.any(above > 0) else "min_m",
+               f"obstacle '{name}' {_fmt(o_lo)}..{_fmt(o_hi)} extends outside {area}: {', '.join(parts)}")
+
+
+def _fmt(v) -> str:
+    return "[" + ", ".join(f"{x:g}" for x in np.asarray(v).ravel()) + "]"
+
+
 def _check_point(world: World, table: _Table, key: str, point: np.ndarray, what: str, region=None):
     """Reject a start or goal point outside the area, inside an obstacle or outside the region."""
     if not world.in_area(point):
@@ -355,6 +378,8 @@ def parse_value(text: str):
         return tomllib.loads(f"v = {text}")["v"]
     except tomllib.TOMLDecodeError:
         return text
+    except RecursionError:
+        raise ValueError(f"value nested too deeply: {text[:20]}...") from None
 
 
 def _set_key(data: dict, key: str, value, path: Path) -> None:
@@ -401,8 +426,9 @@ def load_mission(path: str | Path, overrides: dict[str, object] | None = None) -
     if not targets:
         top.fail("targets", "at least one [[targets]] table is required")
     guidance = _guidance(top.table("guidance"))
+    _check_goals_reachable(path, world, dynamics, guidance, targets)
     filt = _filter(top.table("filter"), sensor)
-    planner = _planner(top.table("planner"), uav, sensor)
+    planner = _planner(top.table("planner"), uav, sensor, world)
     if filt.kind != "particle" and planner.fixed_sensors.sensor.clutter_rate > 0:
         raise MissionError(path, "planner.fixed_sensors.clutter_rate", f"filter.kind = {filt.kind} needs clutter-free "
                            "sensors; set it to 0 or use the particle filter")
@@ -464,7 +490,8 @@ def _region(t: _Table | None, world: World) -> Region2D | None:
         v = t.array("vertices_m", (None, 2))
         if len(v) < 3:
             t.fail("vertices_m", f"a polygon needs at least 3 vertices, got {len(v)}")
-        cross = np.cross(np.roll(v, -1, 0) - v, np.roll(v, -2, 0) - np.roll(v, -1, 0))
+        e1, e2 = np.roll(v, -1, 0) - v, np.roll(v, -2, 0) - np.roll(v, -1, 0)
+        cross = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]  # np.cross of 2-vectors is deprecated
         if not (np.all(cross > 0) or np.all(cross < 0)):
             t.fail("vertices_m", "polygon must be convex with distinct, non-collinear vertices")
         region = Region2D.from_vertices(v if cross[0] > 0 else v[::-1])
@@ -532,7 +559,7 @@ def _boolean(t: _Table, key: str, default: bool) -> bool:
     return value
 
 
-def _planner(t: _Table, uav: UavConfig, sensor: Sensor) -> PlannerConfig:
+def _planner(t: _Table, uav: UavConfig, sensor: Sensor, world: World) -> PlannerConfig:
     name = t.string("name", choices=PLANNERS)
     m = t.table("manoeuvres", optional=True) or _Table(t.file, t.path("manoeuvres"), {})
     positive = dict(lo=0, lo_open=True)
@@ -547,7 +574,9 @@ def _planner(t: _Table, uav: UavConfig, sensor: Sensor) -> PlannerConfig:
     )
     m.finish()
     f = t.table("fixed_sensors", optional=True) or _Table(t.file, t.path("fixed_sensors"), {})
-    xy = f.array("positions_m", (None, 2), default=[[150.0, 200.0], [800.0, 200.0], [500.0, 900.0]])
+    given = f.has("positions_m")
+    xy = f.array("positions_m", (None, 2), default=DEFAULT_FIXED_SENSORS)
+    _check_fixed_sensors(f, xy, given, world)
     fixed = FixedSensorsConfig(
         positions=np.column_stack([xy, np.zeros(len(xy))]),
         sensor=Sensor(sigma=sensor.sigma, p_detect=f.number("p_detect", default=1.0, lo=0, hi=1),
@@ -556,3 +585,55 @@ def _planner(t: _Table, uav: UavConfig, sensor: Sensor) -> PlannerConfig:
     f.finish()
     t.finish()
     return PlannerConfig(name=name, manoeuvres=manoeuvres, fixed_sensors=fixed)
+
+
+def _check_fixed_sensors(t: _Table, xy: np.ndarray, given: bool, world: World) -> None:
+    """Fixed sensors (on the ground, z = 0) must be in the area and outside obstacles.
+    The defaults fit the paper's 1 km area only, so their message says how to replace them."""
+    pts = np.column_stack([xy, np.zeros(len(xy))])
+    inside_area = np.all((xy >= world.area_lo[:2]) & (xy <= world.area_hi[:2]), axis=1)
+    in_obstacle = world.in_obstacle(pts)
+    bad = np.flatnonzero(~inside_area | in_obstacle)
+    if not len(bad):
+        return
+    k = int(bad[0])
+    if not inside_area[k]:
+        where = f"outside the area {_fmt(world.area_lo[:2])}..{_fmt(world.area_hi[:2])}"
+    else:
+        hit = inside_polytopes(pts[k], world.normals, world.offsets)
+        where = f"inside obstacle '{world.obstacle_names[int(np.argmax(hit))]}'"
+    if given:
+        t.fail("positions_m", f"fixed sensor {k} at {_fmt(xy[k])} is {where}")
+    defaults = ", ".join(map(_fmt, DEFAULT_FIXED_SENSORS))
+    t.fail("positions_m", f"the default fixed-sensor position {_fmt(xy[k])} (defaults {defaults}, "
+                          f"used when the mission gives none) is {where}: set planner.fixed_sensors.positions_m")
+
+
+def _check_goals_reachable(path: Path, world: World, dynamics: Dynamics, guidance: GuidanceConfig,
+                           targets: tuple[Target, ...]) -> None:
+    """Reject a goal no plan can reach, where geometry decides it exactly: the goal region
+    lies wholly inside the inflated obstacles, or no free path joins the target's start
+    to it (:class:`uavsim.world.FreeSpace`).  Obstacles are inflated as guidance does,
+    by ``delta = speed_max dt / 2 + clearance``, and those off the ground are ignored."""
+    margin = guidance.speed_max * dynamics.dt / 2.0 + guidance.clearance
+    kept, lo, hi = ground_footprints(world.obstacle_lo, world.obstacle_hi, margin)
+    if not len(kept):
+        return
+    space = free_space(lo, hi, world.area_lo, world.area_hi, [(g.lo, g.hi) for g in world.goals])
+    inflated = f"inflated by {margin:g} m = speed_max_mps * dt_s / 2 + clearance_m"
+
+    def names(idx) -> str:
+        return ", ".join(f"'{world.obstacle_names[kept[i]]}'" for i in idx)
+
+    for i, target in enumerate(targets):
+        goal = world.goals[target.goal]
+        goal_labels = space.region_labels(goal.lo, goal.hi)
+        if not goal_labels:
+            raise MissionError(path, f"targets[{i}].goal", f"goal region '{goal.name}' lies entirely inside obstacles "
+                               f"{names(space.covering(goal.lo, goal.hi))} ({inflated}): no plan can end in it")
+        start_labels = space.start_labels(target.mean0[:2])
+        if not start_labels & goal_labels:
+            walls = np.intersect1d(space.border(start_labels), space.border(goal_labels))
+            raise MissionError(path, f"targets[{i}].goal",
+                               f"goal region '{goal.name}' cannot be reached from target '{target.name}' at "
+                               f"{_fmt(target.mean0[:2])}: obstacles {names(walls)} ({inflated}) close every path")
