@@ -28,6 +28,7 @@ import io
 import json
 import os
 import time
+import zipfile
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from dataclasses import asdict, dataclass, replace
 from multiprocessing import get_context
@@ -149,27 +150,56 @@ def save_trial(folder: Path, r: TrialResult) -> None:
 
 
 def load_trials(folder: Path, indices: range) -> dict[int, TrialResult]:
-    """The finished trials among ``indices`` (files of other campaigns' sizes are kept)."""
+    """The finished trials among ``indices`` (files of other campaigns' sizes are kept).
+
+    Raises
+    ------
+    CampaignError for a trial file that cannot be read (it names the file to delete).
+    """
     out = {}
     for k in indices:
         path = folder / f"trial-{k:05d}.npz"
         if path.exists():
-            with np.load(path) as z:
-                meta = json.loads(str(z["meta"]))
-                out[k] = TrialResult(int(z["index"]), z["err2"], z["trace"], z["nees_pos"], z["nees_state"],
-                                     z["seconds"], meta["statuses"], tuple(meta["events"]))
+            try:
+                with np.load(path) as z:
+                    meta = json.loads(str(z["meta"]))
+                    out[k] = TrialResult(int(z["index"]), z["err2"], z["trace"], z["nees_pos"], z["nees_state"],
+                                         z["seconds"], meta["statuses"], tuple(meta["events"]))
+            except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
+                raise CampaignError(f"{path}: not a readable trial file ({exc}); delete it to run "
+                                    "that trial again") from None
     return out
 
 
 def _prepare_folder(out: Path, mission: Mission, planner: str, resume: bool) -> Path:
-    """Create or check ``out``; returns its trials folder."""
+    """Create or check ``out``; returns its trials folder.
+
+    Raises
+    ------
+    CampaignError when ``out`` cannot hold the campaign (a file where a folder must be,
+    no permission, a manifest that is not one) or holds another campaign.
+    """
+    try:
+        return _prepare(out, mission, planner, resume)
+    except OSError as exc:
+        raise CampaignError(f"{out}: cannot use this folder: {exc.filename or out}: {exc.strerror or exc}") from None
+
+
+def _prepare(out: Path, mission: Mission, planner: str, resume: bool) -> Path:
     trials = out / "trials"
     manifest = {"mission": str(mission.path), "planner": planner, "steps": mission.steps, "seed": mission.seed,
                 "fingerprint": fingerprint(mission, planner), "format": FORMAT}
     path = out / "campaign.json"
     n_done = len(list(trials.glob("trial-*.npz")))
+    if trials.exists() and not trials.is_dir():
+        raise CampaignError(f"{trials} is a file, but the campaign keeps its trials in a folder of that name")
     if path.exists() and n_done:  # a folder without finished trials has nothing to protect
-        old = json.loads(path.read_text())
+        try:
+            old = json.loads(path.read_text())
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            raise CampaignError(f"{path} is not a campaign manifest (not JSON); use another --out") from None
+        if not isinstance(old, dict):
+            raise CampaignError(f"{path} is not a campaign manifest; use another --out")
         if not resume:
             raise CampaignError(f"{out} already holds a campaign ({n_done} trials done): pass --resume to continue "
                                 "it, or choose another --out")
@@ -194,7 +224,10 @@ def _executor(workers: int, scheduler: str | None):
             from distributed import Client
         except ImportError:
             raise CampaignError("--scheduler needs Dask: pip install 'uavsim[dask]'") from None
-        client = Client(scheduler)
+        try:
+            client = Client(scheduler)
+        except (OSError, ValueError, TypeError) as exc:  # bad address, nobody listening, timeout
+            raise CampaignError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
         return client.get_executor(), client.close
     if workers > 1:
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))

@@ -1,8 +1,9 @@
-"""Command line: ``uavsim validate | plan | run | compare | sweep | tma reproduce``.
+"""Command line: ``uavsim validate | plan | run | compare | sweep | tma reproduce | world generate``.
 
 Every command validates its mission first.  A bad file prints one line
-``error: <file>: <key.path>: <what is wrong>`` to stderr and exits 2.  ``plan`` exits 1
-when some target's plan is not certified optimal.
+``error: <file>: <key.path>: <what is wrong>`` to stderr and exits 2; so does a bad
+argument or an output path that cannot be written (checked before any work starts).
+``plan`` exits 1 when some target's plan is not certified optimal.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import json
 import math
 import os
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -49,6 +51,46 @@ class UsageError(Exception):
     """A command-line request that cannot be carried out (exit status 2)."""
 
 
+def _output_folder(path: str | Path, flag: str = "--out", files: tuple[str, ...] = ()) -> Path:
+    """Check an output folder before any work and create it: not a file, under a folder
+    that can be written, and none of the ``files`` it will hold taken by a folder."""
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f"{flag} {out}: is a file, not a folder; choose another {flag}")
+    _check_ancestor(out, flag)
+    for name in files:
+        if (out / name).is_dir():
+            raise UsageError(f"{flag} {out}: {out / name} is a folder, so the output file cannot be written there")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise UsageError(f"{flag} {out}: cannot create the folder ({exc.strerror})") from None
+    return out
+
+
+def _output_file(path: str | Path, flag: str) -> Path:
+    """Check a file about to be written (its folder is made when it is written)."""
+    out = Path(path)
+    if out.is_dir():
+        raise UsageError(f"{flag} {out}: is a folder, not a file")
+    _check_ancestor(out.parent, flag, out)
+    return out
+
+
+def _check_ancestor(folder: Path, flag: str, named: Path | None = None) -> None:
+    """The nearest existing folder on the way to ``folder`` must be a writable folder."""
+    ancestor = next((p for p in (folder, *folder.parents) if p.exists()), Path("."))
+    if not ancestor.is_dir():
+        raise UsageError(f"{flag} {named or folder}: {ancestor} is a file, not a folder")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise UsageError(f"{flag} {named or folder}: cannot write in {ancestor} (permission denied)")
+
+
+def _seed(value: int | None, flag: str = "--seed") -> None:
+    if value is not None and value < 0:
+        raise UsageError(f"{flag} must be >= 0, got {value}")
+
+
 def _finite(x):
     """JSON has no inf/nan: they become null."""
     if isinstance(x, np.ndarray):
@@ -62,12 +104,12 @@ def cmd_plan(args: argparse.Namespace) -> int:
     from .guidance import Guidance
 
     mission = load_mission(args.mission)
+    if args.time_limit is not None and not (math.isfinite(args.time_limit) and args.time_limit > 0):
+        raise UsageError(f"--time-limit must be a positive number of seconds, got {args.time_limit}")
     if args.solver == "scip" and importlib.util.find_spec("pyscipopt") is None:
         raise UsageError("--solver scip needs pyscipopt: pip install 'uavsim[scip]'")
     cfg = mission.guidance
     if args.time_limit is not None:
-        from dataclasses import replace
-
         cfg = replace(cfg, time_limit=args.time_limit)
     guidance = Guidance(mission.world, mission.dynamics, cfg, solver=args.solver)
     rows = []
@@ -96,6 +138,7 @@ def _campaign_mission(args: argparse.Namespace) -> Mission:
     for flag in ("trials", "steps"):
         if getattr(args, flag) is not None and getattr(args, flag) < 1:
             raise UsageError(f"--{flag} must be at least 1")
+    _seed(args.seed)
     overrides = {} if args.clutter_rate is None else {"sensor.clutter_rate": args.clutter_rate}
     return with_overrides(load_mission(args.mission, overrides), args.steps, args.trials, args.seed)
 
@@ -173,14 +216,15 @@ def _write_json(path: Path, data) -> None:
 def cmd_run(args: argparse.Namespace) -> int:
     mission = _campaign_mission(args)
     planner = args.planner or mission.planner.name
-    out = Path(args.out or f"runs/{mission.path.stem}-{planner}")
     record = None
     if args.record:
         if not 0 <= args.record_trial < mission.trials:
             raise UsageError(f"--record-trial must be between 0 and {mission.trials - 1}")
         if args.record_particles < 0:
             raise UsageError("--record-particles must be >= 0")
-        record = (Path(args.record), args.record_trial, args.record_particles)
+        record = (_output_file(args.record, "--record"), args.record_trial, args.record_particles)
+    out = _output_folder(args.out or f"runs/{mission.path.stem}-{planner}",
+                         files=("summary.json", "rmse.png", "nees.png"))
     summary = _study(args, mission, planner, out, out / "baseline", {}, record)
     _write_json(out / "summary.json", summary)
     _print_summary(summary)
@@ -206,7 +250,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if unknown or not planners:
         raise UsageError(f"--planners: unknown {', '.join(unknown) or '(none given)'}; "
                          f"choose from {', '.join(PLANNERS)}")
-    out = Path(args.out)
+    out = _output_folder(args.out, files=("compare.json", "rmse.png", "nees.png"))
+    for planner in planners:
+        _output_folder(out / planner, "--out")
     results, cache = {}, {}
     for planner in planners:
         results[planner] = _study(args, mission, planner, out / planner, out / "baseline", cache)
@@ -244,9 +290,16 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     for flag in ("trials", "steps"):
         if getattr(args, flag) is not None and getattr(args, flag) < 1:
             raise UsageError(f"--{flag} must be at least 1")
-    missions = [with_overrides(load_mission(args.mission, {key: parse_value(v)}), args.steps, args.trials, args.seed)
-                for v in values]  # validate every value before running any
-    out = Path(args.out)
+    _seed(args.seed)
+    try:
+        values_parsed = [parse_value(v) for v in values]
+    except ValueError as exc:
+        raise UsageError(f"--set: {exc}") from None
+    missions = [with_overrides(load_mission(args.mission, {key: v}), args.steps, args.trials, args.seed)
+                for v in values_parsed]  # validate every value before running any
+    out = _output_folder(args.out, files=("sweep.json", "sweep.csv", "sweep.png"))
+    for value in values:
+        _output_folder(out / f"{key}={value}", "--out", files=("summary.json",))
     rows, cache = [], {}
     for value, mission in zip(values, missions):
         planner = args.planner or mission.planner.name
@@ -278,13 +331,52 @@ def cmd_tma_reproduce(args: argparse.Namespace) -> int:
 
     if args.runs < 2:
         raise UsageError("--runs must be at least 2")
+    _seed(args.seed)
+    out = _output_folder(args.out or f"runs/{args.name}", files=("result.json", "rmse.png"))
     result = reproduce(args.name, args.runs, args.seed)
-    out = Path(args.out or f"runs/{args.name}")
     _write_json(out / "result.json", result)
     tma_rmse_plot(result, out / "rmse.png")
     print(table(result))
     print(f"wrote {out / 'result.json'} and {out / 'rmse.png'}")
     return 0
+
+
+def cmd_world_generate(args: argparse.Namespace) -> int:
+    from .worldgen import MAX_OBSTACLES, MAX_TARGETS, generate, mission_toml, world_toml
+
+    _seed(args.seed)
+    if not 0 <= args.obstacles <= MAX_OBSTACLES:
+        raise UsageError(f"--obstacles must be between 0 and {MAX_OBSTACLES}, got {args.obstacles}")
+    if args.targets is not None and not 1 <= args.targets <= MAX_TARGETS:
+        raise UsageError(f"--targets must be between 1 and {MAX_TARGETS}, got {args.targets}")
+    gen = generate(np.random.default_rng(args.seed), args.obstacles, args.targets)
+    stem = f"gen-s{args.seed}-o{args.obstacles}-t{len(gen.target_goals)}"
+    out = Path(args.out) if args.out else Path("generated") / f"{stem}.toml"
+    if args.out and (out.is_dir() or args.out.endswith(("/", os.sep))):
+        out = out / f"{stem}.toml"
+    world = out.with_name(f"{out.stem}.world.toml")
+    for path in (out, world):
+        _output_file(path, "--out")
+        if path.exists() and not args.force:
+            raise UsageError(f"--out: {path} exists; pass --force to overwrite it")
+    _output_folder(out.parent)
+    command = f"uavsim world generate --seed {args.seed} --obstacles {args.obstacles} --targets {len(gen.target_goals)}"
+    gen = replace(gen, name=out.stem, seed=args.seed)
+    _write_text(world, world_toml(gen, command))
+    _write_text(out, mission_toml(gen, world.name, command))
+    print(f"wrote {out} and {world}: {len(gen.obstacle_names)} obstacles, {len(gen.target_goals)} targets, "
+          f"area {_size(gen.area_hi - gen.area_lo)} m")
+    return 0
+
+
+def _size(v) -> str:
+    return " x ".join(f"{x:g}" for x in v[:2])
+
+
+def _write_text(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
 
 
 def _campaign_args(p: argparse.ArgumentParser) -> None:
@@ -348,6 +440,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=2021, help="run r uses SeedSequence(seed).spawn(runs)[r]")
     p.add_argument("--out", help="output folder (default runs/<name>)")
     p.set_defaults(func=cmd_tma_reproduce)
+
+    world = sub.add_parser("world", help="worlds and missions").add_subparsers(dest="world", required=True)
+    p = world.add_parser(
+        "generate", help="draw a random world + mission pair that passes validate",
+        description="Draw a world and a mission for it (the paper's dynamics, sensor and guidance settings; "
+                    "every goal reachable within the horizon). Writes MISSION.toml and MISSION.world.toml "
+                    "beside it; the mission names its world by that relative path.")
+    p.add_argument("--seed", type=int, required=True, help="the world's seed: the same seed gives the same files")
+    p.add_argument("--obstacles", type=int, required=True, metavar="K", help="number of cuboids, 0 to 15")
+    p.add_argument("--targets", type=int, metavar="N", help="number of targets, 1 to 8 (default: drawn from the seed)")
+    p.add_argument("--out", metavar="FILE", help="the mission file, or a folder for it (default "
+                   "generated/gen-s<seed>-o<K>-t<N>.toml); the world goes beside it as <name>.world.toml")
+    p.add_argument("--force", action="store_true", help="overwrite existing files")
+    p.set_defaults(func=cmd_world_generate)
     return parser
 
 
@@ -357,6 +463,10 @@ def main(argv: list[str] | None = None) -> int:
         return args.func(args)
     except (MissionError, UsageError) as exc:
         print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a path the checks above could not foresee (disk full, removed meanwhile)
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("\ninterrupted: finished trials are kept in the output folder; continue with --resume",

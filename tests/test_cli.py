@@ -1,0 +1,162 @@
+"""Command-line paths and arguments: every bad one is one ``error:`` line and exit 2,
+found before any work starts (no trial runs, nothing is half-written)."""
+
+import json
+import os
+import subprocess
+import sys
+from dataclasses import replace
+
+import pytest
+
+from uavsim.campaign import FORMAT, fingerprint
+from uavsim.cli import main
+from uavsim.config import load_mission
+
+from .conftest import PAPER
+
+M = str(PAPER)
+QUICK = ["--trials", "1", "--steps", "1", "--quiet"]
+
+
+def one_error(capsys, start: str) -> str:
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"error: {start}"), captured.err
+    return lines[0]
+
+
+@pytest.fixture
+def a_file(tmp_path):
+    path = tmp_path / "taken"
+    path.write_text("not a folder\n")
+    return path
+
+
+OUT_COMMANDS = {
+    "run": ["run", M, *QUICK],
+    "compare": ["compare", M, "--planners", "circle", *QUICK],
+    "sweep": ["sweep", M, "--set", "sensor.clutter_rate=0", *QUICK],
+    "tma reproduce": ["tma", "reproduce", "huang2021-scenario1", "--runs", "2"],
+}
+
+
+@pytest.mark.parametrize("name", OUT_COMMANDS)
+def test_out_naming_a_file(capsys, a_file, name):
+    assert main([*OUT_COMMANDS[name], "--out", str(a_file)]) == 2
+    assert one_error(capsys, f"--out {a_file}: ").endswith("is a file, not a folder; choose another --out")
+    assert main([*OUT_COMMANDS[name], "--out", str(a_file / "sub")]) == 2
+    assert one_error(capsys, f"--out {a_file / 'sub'}: ").endswith(f"{a_file} is a file, not a folder")
+
+
+def test_world_generate_out_naming_an_existing_file(capsys, a_file):
+    args = ["world", "generate", "--seed", "1", "--obstacles", "2", "--targets", "1"]
+    assert main([*args, "--out", str(a_file)]) == 2
+    assert one_error(capsys, "--out: ").endswith(f"{a_file} exists; pass --force to overwrite it")
+    assert main([*args, "--out", str(a_file / "m.toml")]) == 2
+    one_error(capsys, f"--out {a_file / 'm.toml'}: {a_file} is a file, not a folder")
+    assert main([*args, "--out", str(a_file.parent / "new" / "m.toml")]) == 0  # folders on the way are made
+    assert main([*args, "--out", str(a_file), "--force"]) == 0
+    assert 'world = "taken.world.toml"' in a_file.read_text()
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--obstacles", "16"], "--obstacles must be between 0 and 15, got 16"),
+    (["--obstacles", "2", "--targets", "9"], "--targets must be between 1 and 8, got 9"),
+    (["--obstacles", "2", "--seed", "-3"], "--seed must be >= 0, got -3"),
+])
+def test_world_generate_bad_counts(capsys, tmp_path, args, message):
+    seed = [] if "--seed" in args else ["--seed", "1"]
+    assert main(["world", "generate", *seed, *args, "--out", str(tmp_path / "m.toml")]) == 2
+    assert one_error(capsys, message)
+    assert not list(tmp_path.iterdir())
+
+
+def test_output_files_taken_by_folders(capsys, tmp_path):
+    (tmp_path / "run" / "summary.json").mkdir(parents=True)
+    assert main(["run", M, *QUICK, "--out", str(tmp_path / "run")]) == 2
+    assert "summary.json is a folder" in one_error(capsys, "--out ")
+    (tmp_path / "cmp" / "circle").parent.mkdir()
+    (tmp_path / "cmp" / "circle").write_text("")
+    assert main(["compare", M, "--planners", "circle", *QUICK, "--out", str(tmp_path / "cmp")]) == 2
+    assert "circle: is a file, not a folder" in one_error(capsys, "--out ")
+    (tmp_path / "sw").mkdir()
+    (tmp_path / "sw" / "sensor.clutter_rate=0").write_text("")
+    assert main(["sweep", M, "--set", "sensor.clutter_rate=0", *QUICK, "--out", str(tmp_path / "sw")]) == 2
+    assert "sensor.clutter_rate=0: is a file" in one_error(capsys, "--out ")
+
+
+def test_record_paths(capsys, tmp_path, a_file):
+    assert main(["run", M, *QUICK, "--out", str(tmp_path / "o"), "--record", str(tmp_path)]) == 2
+    assert one_error(capsys, f"--record {tmp_path}: is a folder, not a file")
+    assert main(["run", M, *QUICK, "--out", str(tmp_path / "o"), "--record", str(a_file / "x.rrd")]) == 2
+    assert one_error(capsys, f"--record {a_file / 'x.rrd'}: {a_file} is a file, not a folder")
+    assert not (tmp_path / "o").exists()  # nothing made before the arguments were all checked
+
+
+def test_unwritable_out(capsys, tmp_path):
+    if os.geteuid() == 0:
+        pytest.skip("root writes anywhere")
+    (tmp_path / "ro").mkdir(mode=0o500)
+    assert main(["run", M, *QUICK, "--out", str(tmp_path / "ro" / "o")]) == 2
+    assert one_error(capsys, f"--out {tmp_path / 'ro' / 'o'}: cannot write in {tmp_path / 'ro'} (permission denied)")
+
+
+def manifest(out):
+    """The manifest ``run M --steps 1`` writes, so that --resume accepts the folder."""
+    m = replace(load_mission(PAPER), steps=1)
+    (out / "trials").mkdir(parents=True)
+    (out / "campaign.json").write_text(json.dumps({"mission": M, "planner": "optimized", "steps": 1, "seed": m.seed,
+                                                   "fingerprint": fingerprint(m, "optimized"), "format": FORMAT}))
+
+
+def test_resume_on_broken_folders(capsys, tmp_path):
+    broken = tmp_path / "broken"
+    broken.mkdir()
+    (broken / "trials").write_text("")
+    assert main(["run", M, *QUICK, "--out", str(broken), "--resume"]) == 2
+    assert one_error(capsys, f"{broken / 'trials'} is a file, but the campaign keeps its trials")
+    garbled = tmp_path / "garbled"
+    (garbled / "trials").mkdir(parents=True)
+    (garbled / "trials" / "trial-00000.npz").write_bytes(b"")
+    (garbled / "campaign.json").write_text("{not json")
+    assert main(["run", M, *QUICK, "--out", str(garbled), "--resume"]) == 2
+    assert one_error(capsys, f"{garbled / 'campaign.json'} is not a campaign manifest (not JSON)")
+    corrupt = tmp_path / "corrupt"
+    manifest(corrupt)
+    (corrupt / "trials" / "trial-00000.npz").write_bytes(b"PK\x03\x04 truncated")
+    assert main(["run", M, *QUICK, "--out", str(corrupt), "--resume"]) == 2
+    assert "trial-00000.npz: not a readable trial file" in one_error(capsys, str(corrupt))
+
+
+@pytest.mark.parametrize("args, message", [
+    (["run", M, *QUICK, "--seed", "-1"], "--seed must be >= 0, got -1"),
+    (["tma", "reproduce", "huang2021-scenario1", "--seed", "-1"], "--seed must be >= 0, got -1"),
+    (["plan", M, "--time-limit", "0"], "--time-limit must be a positive number of seconds, got 0.0"),
+    (["plan", M, "--time-limit", "nan"], "--time-limit must be a positive number of seconds, got nan"),
+    (["run", M, *QUICK, "--scheduler", "nowhere"], "--scheduler nowhere: cannot connect"),
+    (["sweep", M, "--set", "sensor.clutter_rate=" + "[" * 5000, *QUICK], "--set: value nested too deeply"),
+])
+def test_bad_arguments(capsys, tmp_path, args, message):
+    assert main([*args, "--out", str(tmp_path / "o")] if args[0] != "plan" else args) == 2
+    one_error(capsys, message)
+
+
+def test_io_failure_while_writing_is_one_line(capsys, tmp_path, monkeypatch):
+    """An error the checks cannot foresee (here: a full disk) is still one line, exit 2."""
+    import uavsim.cli
+
+    def full(path, data):
+        raise OSError(28, "No space left on device", str(path))
+
+    monkeypatch.setattr(uavsim.cli, "_write_json", full)
+    assert main(["tma", "reproduce", "huang2021-scenario1", "--runs", "2", "--out", str(tmp_path)]) == 2
+    assert one_error(capsys, f"{tmp_path / 'result.json'}: No space left on device")
+
+
+def test_out_file_through_the_entry_point(a_file):
+    """As a user runs it: one stderr line and exit status 2, no traceback."""
+    proc = subprocess.run([sys.executable, "-m", "uavsim", "run", M, *QUICK, "--out", str(a_file)],
+                          capture_output=True, text=True)
+    assert proc.returncode == 2 and proc.stdout == ""
+    assert proc.stderr == f"error: --out {a_file}: is a file, not a folder; choose another --out\n"

@@ -1,0 +1,497 @@
+"""Random worlds and missions: guidance and the closed loop on geometry they have never seen.
+
+``generate(rng, obstacles=K, targets=N)`` draws a world + mission pair; ``world_toml``
+and ``mission_toml`` write them as TOML that ``uavsim validate`` accepts.  Everything
+random comes from the one ``numpy.random.Generator`` passed in, and every number is
+rounded before it is used, so a seed gives byte-identical files.
+
+What a world holds (each a deliberate test of guidance, sensing or validation):
+
+* an area that is not the paper's 1 km square (600-1600 m by 500-1400 m, never square),
+  sometimes offset from the origin;
+* 0-15 cuboids: a **gate** (two walls with a narrow corridor between them, 2.5-5
+  margins wide, so 0.5-3 margins remain after both walls are inflated), a **shield**
+  (one to three walls round a goal, the goal open on one side; a target starts behind
+  it), tall thin **masts**, boxes of varied footprint and height, and now and then a box
+  off the ground (ignored by ground guidance, an obstacle for the UAV);
+* 1-3 goal regions kept clear of the inflated obstacles; 1-8 targets starting outside
+  the inflated obstacles by one more margin, also after their first step
+  ``p1 = p0 + v0 dt`` (which no control can change), some with a starting velocity;
+* every goal reachable: the free-space shortest path from each start to its goal's
+  centroid (:func:`uavsim.routes.shortest_route` among the inflated footprints) is at
+  most ``REACH_FRACTION = 0.6`` of the horizon's straight reach ``T dt v_max`` (480 m
+  with the paper's T = 50, dt = 1 s, 16 m/s): the target needs about 5 steps to reach
+  full speed and flies an inscribed speed polygon, so 0.6 leaves room to turn;
+* a UAV altitude below the tallest obstacle in most worlds (the UAV must fly round it
+  too), an operating region (box or convex polygon) in about 40% of them, and fixed
+  sensors inside the area and outside obstacles, near the paper's (0.15, 0.2),
+  (0.8, 0.2), (0.5, 0.9) of the area.
+
+The dynamics, sensor, UAV grid, guidance and filter settings are the paper mission's
+(004_22b452551a772073.txt Sec. VI-A; ``missions/paper.toml``), written into the mission.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .routes import GoalField
+from .world import GROUND_BAND_M, Region2D, cuboid_halfspaces, free_space, ground_footprints, inside_polytopes
+
+REACH_FRACTION = 0.6
+MAX_OBSTACLES, MAX_TARGETS = 15, 8
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The mission numbers written into every generated mission: the paper's
+    (004 Sec. VI-A, as in ``missions/paper.toml``), except ``trials`` (10, not 100: a
+    generated world is for a first look; ``--trials`` sets more)."""
+
+    dt_s: float = 1.0
+    friction: float = 0.2
+    mass_kg: float = 1300.0
+    process_noise_cov_si: tuple[float, ...] = (30.0, 30.0, 1e-10, 3.0, 3.0, 1e-10)
+    sigma_deg: float = 1.0
+    p_detect: float = 0.95
+    clutter_rate: float = 1.0
+    step_m: float = 5.0
+    n_theta: int = 15
+    n_r: int = 4
+    horizon: int = 50
+    horizon_mode: str = "shrinking"
+    rho: float = 0.01
+    force_max_n: float = 6000.0
+    speed_max_mps: float = 16.0
+    speed_polygon_sides: int = 16
+    clearance_m: float = 1.0
+    gap: float = 1e-4
+    time_limit_s: float = 30.0
+    particles: int = 5000
+    resample_threshold: float = 0.5
+    roughening: float = 0.0
+    cov0_si: tuple[float, ...] = (200.0, 200.0, 1e-10, 20.0, 20.0, 1e-10)
+    trials: int = 10
+
+    @property
+    def margin(self) -> float:
+        """delta = v_max dt / 2 + clearance, the guidance model's per-axis inflation."""
+        return self.speed_max_mps * self.dt_s / 2.0 + self.clearance_m
+
+    @property
+    def reach(self) -> float:
+        """Longest free path allowed from a start to its goal (m)."""
+        return REACH_FRACTION * self.horizon * self.dt_s * self.speed_max_mps
+
+
+@dataclass(frozen=True, eq=False)
+class Generated:
+    """One generated world and mission (SI units, rounded as written).
+
+    Shapes: K obstacles, G goals, N targets.  ``region`` is None, ``("box", lo, hi)``
+    or ``("polygon", vertices (k, 2))``.  ``route_lengths (N,)``: free-space shortest
+    path from each start to its goal's centroid.
+    """
+
+    name: str
+    area_lo: np.ndarray
+    area_hi: np.ndarray
+    obstacle_names: tuple[str, ...]
+    obstacle_lo: np.ndarray  # (K, 3)
+    obstacle_hi: np.ndarray
+    goal_names: tuple[str, ...]
+    goal_centres: np.ndarray  # (G, 2)
+    goal_sizes: np.ndarray
+    target_positions: np.ndarray  # (N, 3)
+    target_velocities: np.ndarray  # (N, 3)
+    target_goals: np.ndarray  # (N,) int
+    route_lengths: np.ndarray  # (N,)
+    altitude: float
+    uav_start: np.ndarray  # (3,)
+    region: tuple | None
+    fixed_sensors: np.ndarray  # (3, 2)
+    manoeuvres: dict[str, float]
+    seed: int | None = None
+    settings: Settings = field(default_factory=Settings)
+
+
+# --------------------------------------------------------------------------- drawing helpers
+class _Layout:
+    """The obstacles placed so far and the rules a new one must meet."""
+
+    def __init__(self, area_lo, area_hi, goals_lo, goals_hi, keep_clear: float):
+        self.area_lo, self.area_hi = area_lo, area_hi
+        self.clear_lo, self.clear_hi = goals_lo - keep_clear, goals_hi + keep_clear
+        self.lo: list[np.ndarray] = []
+        self.hi: list[np.ndarray] = []
+        self.names: list[str] = []
+
+    def fits(self, lo: np.ndarray, hi: np.ndarray, spacing: float = 1.0) -> bool:
+        """Inside the area, clear of the goals, not overlapping another obstacle."""
+        if np.any(lo < self.area_lo) or np.any(hi > self.area_hi):
+            return False
+        if np.any(np.all((lo[:2] < self.clear_hi) & (hi[:2] > self.clear_lo), axis=1)):
+            return False
+        if self.lo:
+            o_lo, o_hi = np.array(self.lo)[:, :2] - spacing, np.array(self.hi)[:, :2] + spacing
+            if np.any(np.all((lo[:2] < o_hi) & (hi[:2] > o_lo), axis=1)):
+                return False
+        return True
+
+    def add(self, boxes: list[tuple[np.ndarray, np.ndarray]], kind: str) -> bool:
+        """Add the boxes of one feature if all fit (a feature's own boxes may touch)."""
+        if not all(self.fits(lo, hi) for lo, hi in boxes):
+            return False
+        for lo, hi in boxes:
+            self.names.append(f"{kind}{len(self.lo) + 1}"), self.lo.append(lo), self.hi.append(hi)
+        return True
+
+
+def _box(centre_xy, size_xy, z0: float, z1: float) -> tuple[np.ndarray, np.ndarray]:
+    """A cuboid from its (x, y) centre and size, corners rounded to whole metres."""
+    c, s = np.asarray(centre_xy, dtype=float), np.asarray(size_xy, dtype=float)
+    lo, hi = np.round(c - s / 2), np.round(c + s / 2)
+    hi = np.maximum(hi, lo + 1.0)
+    return np.array([lo[0], lo[1], z0]), np.array([hi[0], hi[1], z1])
+
+
+AXES = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]])  # +x, +y, -x, -y
+
+
+def _gate(rng, goal_c, goal_s, margin) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Two walls across the approach to a goal with a corridor between them."""
+    u = AXES[rng.integers(4)]
+    w = np.array([u[1], u[0]])  # along the wall
+    dist = np.abs(u) @ goal_s / 2 + margin + rng.uniform(60, 200)
+    depth, gap = rng.uniform(15, 80), np.round(rng.uniform(2.5, 5.0) * margin)
+    mid = goal_c + dist * u + w * rng.uniform(-40, 40)
+    height = float(np.round(rng.uniform(15, 120)))
+    out = []
+    for side in (-1, 1):
+        length = rng.uniform(60, 250)
+        c = mid + side * w * (gap / 2 + length / 2)
+        out.append(_box(c, np.abs(u) * depth + np.abs(w) * length, 0.0, height))
+    return out
+
+
+def _shield(rng, goal_c, goal_s, margin, walls: int) -> tuple[list, np.ndarray]:
+    """One to three walls round a goal (open on the side away from the first wall);
+    returns the walls and the direction (from the goal) behind the first one."""
+    u = AXES[rng.integers(4)]
+    w = np.array([u[1], u[0]])
+    half_u, half_w = np.abs(u) @ goal_s / 2, np.abs(w) @ goal_s / 2
+    gap, thick = margin + rng.uniform(25, 60), rng.uniform(10, 40)
+    span = 2 * (half_w + gap + thick) + rng.uniform(0, 60)
+    height = float(np.round(rng.uniform(20, 150)))
+    out = [_box(goal_c + (half_u + gap + thick / 2) * u, np.abs(u) * thick + np.abs(w) * span, 0.0, height)]
+    side_len = 2 * (half_u + gap) + rng.uniform(0, 40)
+    for side in (-1, 1)[: walls - 1]:
+        c = goal_c + side * (half_w + gap + thick / 2) * w + (half_u + gap - side_len / 2) * u
+        out.append(_box(c, np.abs(w) * thick + np.abs(u) * side_len, 0.0, height))
+    return out, u
+
+
+def _free_box(rng, layout: _Layout, kind: str, extent: float) -> tuple[np.ndarray, np.ndarray]:
+    """A mast (tall, thin) or a box of varied footprint, sometimes off the ground."""
+    lo, hi = layout.area_lo[:2], layout.area_hi[:2]
+    if kind == "mast":
+        size, z0, z1 = np.full(2, rng.uniform(8, 25)), 0.0, rng.uniform(100, 250)
+    else:
+        size = rng.uniform(20, max(40.0, extent / 4), 2)
+        z0 = 0.0 if rng.random() > 0.15 else float(np.round(rng.uniform(15, 60)))
+        z1 = z0 + rng.uniform(10, 150)
+    return _box(rng.uniform(lo + size / 2, hi - size / 2), size, z0, float(np.round(z1)))
+
+
+def _obstacles(rng, layout: _Layout, k: int, goal_c, goal_s, margin, extent) -> list:
+    """Place k obstacles: a gate, a shield, masts and boxes; returns the shields as
+    (goal index, direction behind the shield)."""
+    shields, g = [], len(goal_c)
+    if k >= 2 and rng.random() < 0.8:
+        for _ in range(30):
+            j = int(rng.integers(g))
+            if layout.add(_gate(rng, goal_c[j], goal_s[j], margin), "gate"):
+                break
+    if len(layout.lo) < k and rng.random() < 0.8:
+        walls = int(min(rng.integers(1, 4), k - len(layout.lo)))
+        for _ in range(30):
+            j = int(rng.integers(g))
+            boxes, u = _shield(rng, goal_c[j], goal_s[j], margin, walls)
+            if layout.add(boxes, "shield"):
+                shields.append((j, u))
+                break
+    for _ in range(200 * k):
+        if len(layout.lo) >= k:
+            break
+        kind = "mast" if rng.random() < 0.2 else "box"
+        layout.add([_free_box(rng, layout, kind, extent)], kind)
+    return shields if len(layout.lo) == k else None  # None: too crowded, draw another area
+
+
+def _distance_to_boxes(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """(...,) Euclidean distance from points (..., 2) to the nearest closed box (inf if none)."""
+    if len(lo) == 0:
+        return np.full(p.shape[:-1], np.inf)
+    gap = np.maximum(0.0, np.maximum(lo - p[..., None, :], p[..., None, :] - hi))
+    return np.linalg.norm(gap, axis=-1).min(axis=-1)
+
+
+def _target(rng, goal, behind, field: GoalField, ground, area_lo, area_hi, goals_lo, goals_hi, s: Settings):
+    """A start and starting velocity for a target of ``goal = (centre, size)``:
+    outside the inflated obstacles by a margin at p0 and at p1 = p0 + v0 dt, outside
+    every goal region, with 100 m <= free path to the goal's centroid <= ``s.reach``.
+    Candidates are drawn 32 at a time; the first that qualifies is taken."""
+    lo, hi = ground
+    for _ in range(40):
+        ang = rng.uniform(-np.pi, np.pi, 32)
+        if behind is not None:  # in a 60-degree cone behind the shield
+            ang = np.arctan2(behind[1], behind[0]) + ang / 6
+        r = rng.uniform(0.25, 0.95, 32) * s.reach
+        p0 = np.round(goal[0] + r[:, None] * np.column_stack([np.cos(ang), np.sin(ang)]))
+        v0 = np.where(rng.random(32)[:, None] < 0.5, 0.0, np.round(rng.uniform(-4, 4, (32, 2)), 1))
+        pts = np.stack([p0, p0 + v0 * s.dt_s], axis=1)  # (32, 2, 2)
+        ok = np.all((pts >= area_lo[:2] + s.margin) & (pts <= area_hi[:2] - s.margin), axis=(1, 2))
+        ok &= np.all(_distance_to_boxes(pts, lo, hi) >= s.margin, axis=1)
+        ok &= ~np.any(np.all((pts[:, :, None] >= goals_lo) & (pts[:, :, None] <= goals_hi), axis=-1), axis=(1, 2))
+        for chunk in np.array_split(np.flatnonzero(ok), max(1, int(ok.sum()) // 8)):
+            length = field.lengths(p0[chunk])
+            good = np.flatnonzero((length >= 100.0) & (length <= s.reach))
+            if len(good):
+                k = chunk[good[0]]
+                return p0[k], v0[k], float(length[good[0]])
+    return None
+
+
+# --------------------------------------------------------------------------- the generator
+def generate(rng: np.random.Generator | int, obstacles: int, targets: int | None = None,
+             settings: Settings = Settings(), name: str | None = None) -> Generated:
+    """Draw a world + mission pair (see the module docstring for what it holds).
+
+    Parameters
+    ----------
+    rng : a Generator, or a seed for ``numpy.random.default_rng``.
+    obstacles : 0..15 cuboids; targets : 1..8 (None: drawn from ``rng``).
+    settings : the mission numbers (default: the paper's); name : default ``gen``.
+    """
+    seed = rng if isinstance(rng, (int, np.integer)) else None
+    rng = np.random.default_rng(rng)
+    if not 0 <= obstacles <= MAX_OBSTACLES:
+        raise ValueError(f"obstacles must be between 0 and {MAX_OBSTACLES}, got {obstacles}")
+    if targets is None:
+        targets = int(rng.integers(1, MAX_TARGETS + 1))
+    if not 1 <= targets <= MAX_TARGETS:
+        raise ValueError(f"targets must be between 1 and {MAX_TARGETS}, got {targets}")
+    for _ in range(1000):  # a draw that cannot be completed starts again from a new area
+        out = _attempt(rng, obstacles, targets, settings)
+        if out is not None:
+            return Generated(name=name or "gen", seed=None if seed is None else int(seed), settings=settings, **out)
+    raise RuntimeError("no world found in 1000 draws")  # never seen; a bug if it happens
+
+
+def _area(rng) -> tuple[np.ndarray, np.ndarray]:
+    while True:
+        size = np.round(rng.uniform([600, 500], [1600, 1400]) / 10) * 10
+        if abs(size[0] - size[1]) >= 100:
+            break
+    origin = np.round(rng.uniform(-500, 500, 2) / 10) * 10 if rng.random() < 0.3 else np.zeros(2)
+    top = float(np.round(rng.uniform(300, 1000) / 50) * 50)
+    return np.r_[origin, 0.0], np.r_[origin + size, top]
+
+
+def _goals(rng, n: int, area_lo, area_hi) -> tuple[np.ndarray, np.ndarray] | None:
+    centres, sizes = [], []
+    for _ in range(100 * n):
+        if len(centres) == n:
+            return np.array(centres), np.array(sizes)
+        s = np.round(rng.uniform(40, 120, 2) / 5) * 5
+        c = np.round(rng.uniform(area_lo[:2] + 60 + s / 2, area_hi[:2] - 60 - s / 2))
+        if all(np.any(np.abs(c - c2) > (s + s2) / 2 + 80) for c2, s2 in zip(centres, sizes)):
+            centres.append(c), sizes.append(s)
+    return None
+
+
+def _attempt(rng, n_obstacles: int, n_targets: int, s: Settings) -> dict | None:
+    area_lo, area_hi = _area(rng)
+    extent = float(np.min(area_hi[:2] - area_lo[:2]))
+    goals = _goals(rng, int(rng.integers(1, min(n_targets, 3) + 1)), area_lo, area_hi)
+    if goals is None:
+        return None
+    goal_c, goal_s = goals
+    goals_lo, goals_hi = goal_c - goal_s / 2, goal_c + goal_s / 2
+    layout = _Layout(area_lo, area_hi, goals_lo, goals_hi, s.margin + 10.0)
+    shields = _obstacles(rng, layout, n_obstacles, goal_c, goal_s, s.margin, extent)
+    if shields is None:
+        return None
+    obs_lo, obs_hi = np.array(layout.lo).reshape(-1, 3), np.array(layout.hi).reshape(-1, 3)
+    _, lo, hi = ground_footprints(obs_lo, obs_hi, s.margin, GROUND_BAND_M)
+    space = free_space(lo, hi, area_lo, area_hi, list(zip(goals_lo, goals_hi)))
+    if any(not space.region_labels(a, b) for a, b in zip(goals_lo, goals_hi)):
+        return None
+    behind = dict(shields)
+    fields = [GoalField(c, lo, hi, area_lo, area_hi) for c in goal_c]
+    starts, vels, which, lengths = [], [], [], []
+    for j in range(n_targets):
+        g = j % len(goal_c)
+        got = _target(rng, (goal_c[g], goal_s[g]), behind.pop(g, None), fields[g], (lo, hi), area_lo, area_hi,
+                      goals_lo, goals_hi, s)
+        if got is None:
+            return None
+        starts.append(got[0]), vels.append(got[1]), which.append(g), lengths.append(got[2])
+    uav = _uav(rng, obs_lo, obs_hi, area_lo, area_hi)
+    sensors = _fixed_sensors(rng, obs_lo, obs_hi, area_lo, area_hi)
+    if uav is None or sensors is None:
+        return None
+    return dict(
+        area_lo=area_lo, area_hi=area_hi, obstacle_names=tuple(layout.names), obstacle_lo=obs_lo,
+        obstacle_hi=obs_hi, goal_names=tuple(f"G{i + 1}" for i in range(len(goal_c))), goal_centres=goal_c,
+        goal_sizes=goal_s, target_positions=np.column_stack([starts, np.zeros(n_targets)]),
+        target_velocities=np.column_stack([vels, np.zeros(n_targets)]), target_goals=np.array(which),
+        route_lengths=np.array(lengths), fixed_sensors=sensors,
+        **uav,
+    )
+
+
+def _inside_boxes(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
+    """3D point inside a closed cuboid (touching counts, as in validation)."""
+    return bool(len(lo)) and bool(inside_polytopes(p, *cuboid_halfspaces(lo, hi)).any())
+
+
+def _region2d(region: tuple) -> Region2D:
+    return Region2D.box(region[1], region[2]) if region[0] == "box" else Region2D.from_vertices(region[1])
+
+
+def _uav(rng, obs_lo, obs_hi, area_lo, area_hi) -> dict | None:
+    """Altitude (below the tallest ground obstacle in 3 worlds of 4), operating region
+    (box or convex polygon in 2 of 5), a free start in it and manoeuvre sizes to fit it."""
+    tallest = float(obs_hi[:, 2].max()) if len(obs_hi) else 0.0
+    if tallest >= 20 and rng.random() < 0.75:
+        altitude = float(np.round(rng.uniform(0.3, 0.9) * tallest))
+    else:
+        altitude = float(np.round(rng.uniform(max(20.0, tallest + 5), max(150.0, tallest + 50))))
+    altitude = min(altitude, float(area_hi[2]) - 10)
+    region = _region(rng, area_lo, area_hi) if rng.random() < 0.4 else None
+    if region is None:
+        r_lo, r_hi = area_lo[:2], area_hi[:2]
+    else:
+        pts = region[1] if region[0] == "polygon" else np.array(region[1:])
+        r_lo, r_hi = pts.min(axis=0), pts.max(axis=0)
+    for _ in range(200):
+        p = np.round(rng.uniform(r_lo, r_hi))
+        start = np.r_[p, altitude]
+        in_region = region is None or bool(_region2d(region).contains(p))
+        if in_region and not _inside_boxes(start, obs_lo, obs_hi):
+            e = float(np.min(r_hi - r_lo))
+            sizes = {"zigzag_length_m": 0.3 * e, "zigzag_width_m": 0.12 * e, "square_side_m": 0.15 * e,
+                     "pentagon_radius_m": 0.09 * e, "circle_radius_m": 0.08 * e}
+            return dict(altitude=altitude, uav_start=start, region=region,
+                        manoeuvres={k: float(np.round(v / 5) * 5) for k, v in sizes.items()})
+    return None
+
+
+def _region(rng, area_lo, area_hi) -> tuple:
+    """A box of 50-90% of the area per axis, or a convex polygon (5-8 vertices on an
+    ellipse inscribed in such a box, at least 20 degrees apart)."""
+    size = area_hi[:2] - area_lo[:2]
+    frac = rng.uniform(0.5, 0.9, 2)
+    lo = np.round(area_lo[:2] + rng.uniform(0, 1 - frac) * size)
+    hi = np.round(lo + frac * size)
+    if rng.random() < 0.5:
+        return ("box", lo, hi)
+    c, r = (lo + hi) / 2, (hi - lo) / 2
+    while True:
+        ang = np.sort(rng.uniform(0, 2 * np.pi, int(rng.integers(5, 9))))
+        if np.any(np.diff(np.r_[ang, ang[0] + 2 * np.pi]) <= np.radians(20)):
+            continue
+        v = np.round(c + r * np.column_stack([np.cos(ang), np.sin(ang)]))
+        edge = np.roll(v, -1, axis=0) - v
+        if np.all(edge[:, 0] * np.roll(edge, -1, axis=0)[:, 1] - edge[:, 1] * np.roll(edge, -1, axis=0)[:, 0] > 0):
+            return ("polygon", v)  # still strictly convex after rounding
+
+
+def _fixed_sensors(rng, obs_lo, obs_hi, area_lo, area_hi) -> np.ndarray:
+    """Three ground sensors near the paper's layout, jittered, outside obstacles
+    (None if one finds no free place)."""
+    size = area_hi[:2] - area_lo[:2]
+    out = []
+    for frac in ((0.15, 0.2), (0.8, 0.2), (0.5, 0.9)):
+        for tries in range(500):
+            spread = 0.05 if tries < 100 else 0.5
+            f = np.clip(np.array(frac) + rng.uniform(-spread, spread, 2), 0.02, 0.98)
+            p = np.round(area_lo[:2] + f * size)
+            if not _inside_boxes(np.r_[p, 0.0], obs_lo, obs_hi):
+                out.append(p)
+                break
+        else:
+            return None
+    return np.array(out)
+
+
+# --------------------------------------------------------------------------- TOML
+def _num(x) -> str:
+    return repr(float(x))
+
+
+def _str(text: str) -> str:
+    return json.dumps(text)  # a JSON string is a TOML basic string
+
+
+def _vec(v) -> str:
+    return "[" + ", ".join(_num(x) for x in np.asarray(v).ravel()) + "]"
+
+
+def world_toml(g: Generated, command: str = "") -> str:
+    """The world file: area, obstacles, goal regions."""
+    lines = [f"# Generated world{f' ({command})' if command else ''}.",
+             f"# Obstacles are inflated by {g.settings.margin:g} m for ground targets "
+             "(speed_max * dt / 2 + clearance).",
+             f"name = {_str(g.name)}", "", "[area]", f"min_m = {_vec(g.area_lo)}", f"max_m = {_vec(g.area_hi)}"]
+    for name, lo, hi in zip(g.obstacle_names, g.obstacle_lo, g.obstacle_hi):
+        lines += ["", "[[obstacles]]", f'name = "{name}"', f"min_m = {_vec(lo)}", f"max_m = {_vec(hi)}"]
+    for name, c, s in zip(g.goal_names, g.goal_centres, g.goal_sizes):
+        lines += ["", "[[goals]]", f'name = "{name}"', f"center_m = {_vec(c)}", f"size_m = {_vec(s)}"]
+    return "\n".join(lines) + "\n"
+
+
+def mission_toml(g: Generated, world_ref: str, command: str = "") -> str:
+    """The mission file; ``world_ref`` is the world's path relative to the mission."""
+    s = g.settings
+    head = [f"# Generated mission{f' ({command})' if command else ''}.",
+            "# Dynamics, sensor, UAV grid, guidance and filter: the paper mission's (004 Sec. VI-A).",
+            f"# Every goal is within {REACH_FRACTION:g} x T dt v_max = {s.reach:g} m of free path from its targets.",
+            f'description = "generated: {len(g.obstacle_names)} obstacles, {len(g.target_goals)} targets"',
+            f"world = {_str(world_ref)}", f"steps = {s.horizon}", f"trials = {s.trials}",
+            f"seed = {g.seed if g.seed is not None else 0}", 'truth = "planned"']
+    return "\n".join(head + _mission_tables(g)) + "\n"
+
+
+def _mission_tables(g: Generated) -> list[str]:
+    s = g.settings
+    lines = ["", "[dynamics]", f"dt_s = {_num(s.dt_s)}", f"friction = {_num(s.friction)}",
+             f"mass_kg = {_num(s.mass_kg)}", f"process_noise_cov_si = {_vec(s.process_noise_cov_si)}",
+             "", "[sensor]", f"sigma_deg = {_num(s.sigma_deg)}", f"p_detect = {_num(s.p_detect)}",
+             f"clutter_rate = {_num(s.clutter_rate)}",
+             "", "[uav]", f"start_m = {_vec(g.uav_start)}", "random_start = true", f"step_m = {_num(s.step_m)}",
+             f"n_theta = {s.n_theta}", f"n_r = {s.n_r}", f"altitude_m = {_num(g.altitude)}"]
+    if g.region is not None and g.region[0] == "box":
+        lines += ["", "[uav.operating_region]", f"min_m = {_vec(g.region[1])}", f"max_m = {_vec(g.region[2])}"]
+    elif g.region is not None:
+        verts = ", ".join(_vec(v) for v in g.region[1])
+        lines += ["", "[uav.operating_region]", f"vertices_m = [{verts}]"]
+    lines += ["", "[guidance]", f"horizon = {s.horizon}", f'horizon_mode = "{s.horizon_mode}"', f"rho = {_num(s.rho)}",
+              f"force_max_n = {_num(s.force_max_n)}", f"speed_max_mps = {_num(s.speed_max_mps)}",
+              f"speed_polygon_sides = {s.speed_polygon_sides}", f"clearance_m = {_num(s.clearance_m)}",
+              f"gap = {_num(s.gap)}", f"time_limit_s = {_num(s.time_limit_s)}",
+              "", "[filter]", f"particles = {s.particles}", f"resample_threshold = {_num(s.resample_threshold)}",
+              f"roughening = {_num(s.roughening)}",
+              "", "[planner]", 'name = "optimized"', "", "[planner.manoeuvres]"]
+    lines += [f"{k} = {_num(v)}" for k, v in g.manoeuvres.items()]
+    lines += ["", "[planner.fixed_sensors]", f"positions_m = [{', '.join(_vec(p) for p in g.fixed_sensors)}]"]
+    for i, (p, v, goal, length) in enumerate(zip(g.target_positions, g.target_velocities, g.target_goals,
+                                                 g.route_lengths)):
+        lines += ["", "[[targets]]", f'name = "T{i + 1}"', f"position_m = {_vec(p)}", f"velocity_mps = {_vec(v)}",
+                  f"cov0_si = {_vec(s.cov0_si)}", f'goal = "{g.goal_names[goal]}"',
+                  f"# free-space shortest path to the goal's centre: {length:.0f} m"]
+    return lines
