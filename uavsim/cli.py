@@ -326,14 +326,20 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_tma_reproduce(args: argparse.Namespace) -> int:
+    from .estimators.li2022 import SCENARIOS as LI2022
     from .estimators.reproduce import reproduce, table
     from .plots import tma_rmse_plot
 
-    if args.runs < 2:
+    if args.name in LI2022:
+        return _tma_reproduce_li2022(args)
+    if args.sigma_scale is not None:
+        raise UsageError(f"--sigma-scale applies to the li2022 studies only, not {args.name}")
+    runs = 300 if args.runs is None else args.runs
+    if runs < 2:
         raise UsageError("--runs must be at least 2")
     _seed(args.seed)
     out = _output_folder(args.out or f"runs/{args.name}", files=("result.json", "rmse.png"))
-    result = reproduce(args.name, args.runs, args.seed)
+    result = reproduce(args.name, runs, args.seed)
     _write_json(out / "result.json", result)
     tma_rmse_plot(result, out / "rmse.png")
     print(table(result))
@@ -377,6 +383,41 @@ def _write_text(path: Path, text: str) -> None:
     tmp = path.with_name(f".{path.name}.tmp")
     tmp.write_text(text)
     tmp.replace(path)
+
+
+# Paper 001's study: `uavsim tma reproduce li2022-line | li2022-arc-slow | li2022-arc-fast`
+
+def _sigma_scales(text: str) -> list[float]:
+    """``--sigma-scale 1,2,3`` -> ``[1.0, 2.0, 3.0]``: positive finite numbers."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise UsageError(f"--sigma-scale needs positive numbers RHO[,RHO...], got {text!r}") from None
+    if not all(math.isfinite(v) and v > 0 for v in values):
+        raise UsageError(f"--sigma-scale needs positive numbers RHO[,RHO...], got {text!r}")
+    return values
+
+
+def _tma_reproduce_li2022(args: argparse.Namespace) -> int:
+    from .estimators.li2022 import reproduce, sweep_table, table
+    from .plots import li2022_curves_plot, li2022_sweep_plot
+
+    runs = 1000 if args.runs is None else args.runs
+    if runs < 2:
+        raise UsageError("--runs must be at least 2")
+    _seed(args.seed)
+    rhos = None if args.sigma_scale is None else _sigma_scales(args.sigma_scale)
+    out = _output_folder(args.out or f"runs/{args.name}", files=("result.json", "curves.png", "sweep.png"))
+    result = reproduce(args.name, runs, args.seed, rhos)
+    written = [out / "result.json", out / "curves.png"] + ([out / "sweep.png"] if rhos else [])
+    _write_json(written[0], result)
+    li2022_curves_plot(result, written[1])
+    print(table(result))
+    if rhos:
+        li2022_sweep_plot(result, written[2])
+        print(sweep_table(result))
+    print(f"wrote {', '.join(map(str, written))}")
+    return 0
 
 
 def _campaign_args(p: argparse.ArgumentParser) -> None:
@@ -431,14 +472,17 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=cmd_sweep)
 
+    from .estimators.li2022 import SCENARIOS as LI2022
     from .estimators.scenarios import SCENARIOS
 
     tma = sub.add_parser("tma", help="the estimator library (papers 000-003)").add_subparsers(dest="tma", required=True)
-    p = tma.add_parser("reproduce", help="a paper's simulation study; writes DIR/result.json and DIR/rmse.png")
-    p.add_argument("name", choices=SCENARIOS)
-    p.add_argument("--runs", type=int, default=300, help="Monte-Carlo runs (default 300, the paper's)")
+    p = tma.add_parser("reproduce", help="a paper's simulation study; writes DIR/result.json and figures")
+    p.add_argument("name", choices=(*SCENARIOS, *LI2022))
+    p.add_argument("--runs", type=int, help="Monte-Carlo runs (default: the paper's; 300 huang2021, 1000 li2022)")
     p.add_argument("--seed", type=int, default=2021, help="run r uses SeedSequence(seed).spawn(runs)[r]")
     p.add_argument("--out", help="output folder (default runs/<name>)")
+    p.add_argument("--sigma-scale", metavar="RHO[,RHO...]",
+                   help="li2022 only: also sweep the bearing-noise scale rho (001 Figs. 4, 8, 12; the paper: 1..10)")
     p.set_defaults(func=cmd_tma_reproduce)
 
     world = sub.add_parser("world", help="worlds and missions").add_subparsers(dest="world", required=True)

@@ -103,3 +103,55 @@ def tma_rmse_plot(result: dict, path: Path) -> None:
     axes[0].legend()
     fig.suptitle(f"{result['scenario']} (cf. 002 {result['figure']}): {result['runs']} runs")
     _save(fig, path)
+
+
+# Paper 001 (li2022-*): `uavsim tma reproduce li2022-...`
+
+_LI_COLOURS = {"PL-MMSE": "C3", "PLKF": "C0", "BC-PLKF": "C2", "IVKF": "C1"}
+_LI_PANELS = (("rmse_pos", "position RMSE (m)"), ("rmse_vel", "velocity RMSE (m/s)"),
+              ("bnorm_pos", "position bias norm (m)"), ("bnorm_vel", "velocity bias norm (m/s)"))
+
+
+def _li_style(label: str) -> dict:
+    """Colour by base filter, line style by constraint (none, first, second variant)."""
+    base = next(b for b in sorted(_LI_COLOURS, key=len, reverse=True) if label.startswith(b))
+    suffix = label[len(base):]
+    style = "-" if not suffix else "--" if suffix in ("-C(W=I)", "-L") else ":"
+    return {"color": _LI_COLOURS[base], "linestyle": style, "label": label}
+
+
+def _li_save(fig, axes, title: str, path: Path) -> None:
+    axes.flat[0].legend(fontsize=6, ncol=2)
+    fig.suptitle(title)
+    _save(fig, path)
+
+
+def li2022_curves_plot(result: dict, path: Path) -> None:
+    """RMSE and bias norm per scan (log scale) of the 12 rows at rho = 7: 001 Figs. 5, 9, 13."""
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), dpi=120)
+    k = np.arange(1, result["scans"] + 1)
+    for label, r in result["rows"].items():
+        for ax, (key, _) in zip(axes.flat, _LI_PANELS):
+            ax.semilogy(k, r["curves"][key], lw=1, **_li_style(label))
+    for ax, (_, ylabel) in zip(axes.flat, _LI_PANELS):
+        ax.axvline(result["first_averaged_scan"], color="0.6", lw=0.8)
+        ax.set(xlabel="scan k", ylabel=ylabel)
+        ax.grid(alpha=0.3, which="both")
+    _li_save(fig, axes, f"{result['scenario']} (cf. 001 {result['figures']}): rho = {result['rho']:g}, "
+             f"{result['runs']} runs", path)
+
+
+def li2022_sweep_plot(result: dict, path: Path) -> None:
+    """Time-averaged RMSE and bias norm against the noise scale rho: 001 Figs. 4, 8, 12
+    (their x axis is the label ``sigma_theta``, proportional to rho)."""
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), dpi=120)
+    rho = [s["rho"] for s in result["sweep"]]
+    for label in result["sweep"][0]["rows"]:
+        for ax, (key, _) in zip(axes.flat, _LI_PANELS):
+            ax.semilogy(rho, [s["rows"][label][f"{key}_avg"] for s in result["sweep"]], marker=".", lw=1,
+                        **_li_style(label))
+    per_rho = result["sweep"][0]["sigma_theta_label_deg"] / rho[0]
+    for ax, (_, ylabel) in zip(axes.flat, _LI_PANELS):
+        ax.set(xlabel=f"rho (label sigma_theta = rho x {per_rho:.3g} deg)", ylabel=f"time-averaged {ylabel}")
+        ax.grid(alpha=0.3, which="both")
+    _li_save(fig, axes, f"{result['scenario']} (cf. 001 {result['figures']}): {result['runs']} runs per rho", path)
