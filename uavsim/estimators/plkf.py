@@ -26,6 +26,17 @@ The extracted text lost minus signs; re-derived here (and tested against hand st
   no division when ``m`` (the observer's offset from the origin along the line of sight)
   vanishes.  Note that ``m`` depends on where the coordinate origin is: the UB and VC
   filters are not translation invariant (the paper's scenarios keep ``|m|`` ~ 700 m).
+* What UB-PLKF is (``../shared/notes/paper002-ub-origin.md``; exact, tested): with
+  ``u^ = [cos beta^, sin beta^]`` the predicted line of sight, ``n^ = [sin beta^, -cos beta^]``,
+  ``d^`` the predicted range and ``delta = beta~ - beta^``, the UB update is a bearing EKF
+  update whose Jacobian ``grad beta = [-sin beta^, cos beta^, 0, 0] / d^`` is scaled by
+  ``alpha = -d^ / (u^ . s)``, with noise ``sigma^2`` and innovation
+  ``sin delta + (cos delta - 1) (n^ . s) / (u^ . s)`` (``delta`` to first order).  So UB
+  is an EKF that weighs each bearing as if its noise were ``sigma / |alpha|``:
+  ``alpha = 1`` only when the origin projects onto the line of sight at the target
+  (``u^ . x^ = 0``); elsewhere ``|alpha|`` over- or under-weights the bearings, by where
+  the origin happens to be.  This is why 002's ranking depends on the scenario's
+  coordinates (``scenarios.py``: ``huang2021-scenario2`` against ``-scenario2-alt``).
 * Eq. (68) / Appendix A (VC): ``K*_v = K_v + (v / |v_k|k| - 1) v_k|k / eps``, i.e. the
   constrained velocity is the UB velocity scaled to norm ``v``.  Step 7's covariance
   ``(I - K H) P`` holds only for the optimal gain; for ``K*`` we use the Joseph form of

@@ -21,6 +21,15 @@ minus signs (the figures are not in the text):
   1.8 deg/s throughout.  CRLB and constrained CRLB are reported.
 * ``huang2021-mismatch`` (Sec. 3.2, Fig. 7): scenario 2 with the true noise 3 deg for
   scans k < 51 and k > 201 and 7 deg otherwise, while the filters still assume 5 deg.
+* ``huang2021-scenario2-alt``: the other reading of scenario 2 (the one that reproduces
+  the paper's ordering, ``../shared/notes/paper002-ub-origin.md``): target
+  ``[-1000, 1000, -10, -10]`` with the acceleration ``[0.05, 0.15]`` as printed, ending
+  at ``(-5, 5)`` m/s; observer from ``(500, 500)`` at ``(0, -9.45)`` m/s in the same
+  anticlockwise turn; prior mean = true start.  Its speed also stays in ``[6.3, 14.2]``
+  m/s.  It needs 5 lost minus signs (x, vx, vy, the final vx, the observer's vy)
+  against 2 for ours; the text alone cannot decide (Fig. 4, the geometry, is not in it).
+  The two differ in where the coordinate origin lies against the line of sight, which
+  UB and VC depend on (``plkf.py``).
 
 Metrics (Eq. 81-84): position and velocity RMSE per scan over the runs, and the
 time-averaged RMSE over scans k = 60..350 as the root of the mean squared error over
@@ -92,7 +101,7 @@ def target_track(x0, segments: list[tuple[int, tuple[float, float]]]) -> np.ndar
 
 
 def scenario(name: str) -> Scenario:
-    """``huang2021-scenario1``, ``huang2021-scenario2`` or ``huang2021-mismatch``."""
+    """``huang2021-scenario1``, ``huang2021-scenario2``, ``huang2021-mismatch`` or ``huang2021-scenario2-alt``."""
     f, q = cv_model(1.0, Q_PSD)
     sigma = np.radians(SIGMA_DEG)
     common = dict(sigma=sigma, p0=P0, f=f, q=q)
@@ -101,6 +110,12 @@ def scenario(name: str) -> Scenario:
         obs = observer_track([500, 500], [0, 3], [(180, 0), (50, -1.8), (120, 0)])
         return Scenario(name, truth, obs, np.full(N_SCANS, sigma), prior_mean=np.array([500.0, 300, 2, 1]),
                         v_min=1.0, v_max=6.0, with_crlb=False, figure="Fig. 3", **common)
+    if name == "huang2021-scenario2-alt":
+        x0 = np.array([-1000.0, 1000, -10, -10])
+        truth = target_track(x0, [(100, (0, 0)), (100, (0.05, 0.15)), (150, (0, 0))])
+        obs = observer_track([500, 500], [0, -9.45], [(N_SCANS, 1.8)])
+        return Scenario(name, truth, obs, np.full(N_SCANS, sigma), prior_mean=x0, v_min=5.0, v_max=16.0,
+                        with_crlb=True, figure="Fig. 5", **common)
     if name in ("huang2021-scenario2", "huang2021-mismatch"):
         x0 = np.array([1000.0, 1000, 10, -10])
         truth = target_track(x0, [(100, (0, 0)), (100, (-0.05, 0.15)), (150, (0, 0))])
@@ -115,7 +130,7 @@ def scenario(name: str) -> Scenario:
     raise ValueError(f"unknown scenario {name!r}; choose from {', '.join(SCENARIOS)}")
 
 
-SCENARIOS = ("huang2021-scenario1", "huang2021-scenario2", "huang2021-mismatch")
+SCENARIOS = ("huang2021-scenario1", "huang2021-scenario2", "huang2021-mismatch", "huang2021-scenario2-alt")
 
 
 def draw_runs(sc: Scenario, runs: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
