@@ -227,8 +227,9 @@ class GuidanceConfig:
     speed_sides: int
     clearance: float
     gap: float
-    time_limit: float
+    time_limit: float  # s, nominal budget of a first plan (see uavsim.guidance)
     horizon_mode: str = "receding"
+    replan_budget: float = 0.25  # s, nominal budget of a re-plan
 
 
 @dataclass(frozen=True)
@@ -530,7 +531,8 @@ def _guidance(t: _Table) -> GuidanceConfig:
         speed_sides=t.number("speed_polygon_sides", default=16, integer=True, lo=4),
         clearance=t.number("clearance_m", default=0.0, lo=0),
         gap=t.number("gap", default=1e-4, lo=0, lo_open=True, hi=1),
-        time_limit=t.number("time_limit_s", default=30.0, lo=0, lo_open=True),
+        time_limit=t.number("time_limit_s", default=10.0, lo=0, lo_open=True),
+        replan_budget=t.number("replan_budget_s", default=0.25, lo=0, lo_open=True),
         horizon_mode=t.string("horizon_mode", default="receding", choices=("receding", "shrinking")),
     )
     t.finish()

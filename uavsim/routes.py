@@ -76,12 +76,15 @@ class Route:
     length: float
     passes: tuple[Passage, ...]
 
-    def sample(self, n: int) -> np.ndarray:
-        """``(n, 2)`` points at equal arc-length spacing, start and goal included."""
+    def at(self, s: np.ndarray) -> np.ndarray:
+        """``(len(s), 2)`` points at arc lengths ``s`` from the start (clipped to the route)."""
         seg = np.linalg.norm(np.diff(self.points, axis=0), axis=1)
         cum = np.r_[0.0, np.cumsum(seg)]
-        s = np.linspace(0.0, cum[-1], n)
         return np.column_stack([np.interp(s, cum, self.points[:, k]) for k in range(2)])
+
+    def sample(self, n: int) -> np.ndarray:
+        """``(n, 2)`` points at equal arc-length spacing, start and goal included."""
+        return self.at(np.linspace(0.0, self.length, n))
 
     @property
     def sides(self) -> dict[int, int]:

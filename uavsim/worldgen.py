@@ -69,7 +69,8 @@ class Settings:
     speed_polygon_sides: int = 16
     clearance_m: float = 1.0
     gap: float = 1e-4
-    time_limit_s: float = 30.0
+    time_limit_s: float = 10.0
+    replan_budget_s: float = 0.25
     particles: int = 5000
     resample_threshold: float = 0.5
     roughening: float = 0.0
@@ -484,6 +485,7 @@ def _mission_tables(g: Generated) -> list[str]:
               f"force_max_n = {_num(s.force_max_n)}", f"speed_max_mps = {_num(s.speed_max_mps)}",
               f"speed_polygon_sides = {s.speed_polygon_sides}", f"clearance_m = {_num(s.clearance_m)}",
               f"gap = {_num(s.gap)}", f"time_limit_s = {_num(s.time_limit_s)}",
+              f"replan_budget_s = {_num(s.replan_budget_s)}",
               "", "[filter]", f"particles = {s.particles}", f"resample_threshold = {_num(s.resample_threshold)}",
               f"roughening = {_num(s.roughening)}",
               "", "[planner]", 'name = "optimized"', "", "[planner.manoeuvres]"]

@@ -1,8 +1,20 @@
-"""Target guidance: Problem (P1) of 004_22b452551a772073.txt Sec. IV, solved exactly.
+"""Target guidance: Problem (P1) of 004_22b452551a772073.txt Sec. IV, solved exactly
+where the budget allows and always with a certified gap.
 
-``Guidance`` builds the cvxpy model once (:mod:`.model`), compiles it
-(:mod:`.compiled`) and solves it by outer approximation with HiGHS (:mod:`.oa`), or
-with SCIP through cvxpy for cross-checks.  ``Guidance.plan`` returns a :class:`Plan`.
+``Guidance`` assembles P1's matrices once per horizon length (:mod:`.compiled`) and
+solves them by QP branch-and-bound and outer approximation with HiGHS (:mod:`.oa`), or
+the cvxpy model (:mod:`.model`) with SCIP for cross-checks.  ``Guidance.plan`` returns
+a :class:`Plan`.
+
+**Budgets.**  A first plan (no previous plan to start from) may spend
+``time_limit_s``; a re-plan ``replan_budget_s``.  Both are counted in fixed-face QPs, at
+the nominal cost :data:`QP_SECONDS` plus :data:`QP_SECONDS_PER_NNZ` per non-zero of the
+program (measured on this project's reference machine, 2 cores), so a plan depends on its
+inputs only: campaigns stay bit-identical on any machine and for any number of workers.
+A wall-clock cap of :data:`WALL_CAP` times the budget stops a solve that runs far slower
+than nominal; the plan then says so.  Within its budget a solve returns the best
+collision-free plan it has, with its certified gap (status "feasible" when above the
+tolerance); one that has no plan yet goes on looking until the cap.
 """
 
 from __future__ import annotations
@@ -15,12 +27,15 @@ import numpy as np
 
 from ..config import GuidanceConfig
 from ..targets import Dynamics
-from ..world import World
+from ..world import GROUND_BAND_M, World
+from .compiled import assemble_p1
 from .faces import Reach
-from .model import GROUND_BAND_M, KN, build_p1
-from .oa import OuterApproximation
+from .model import KN, build_p1, geometry
+from .oa import Budget, OuterApproximation
 
 SOLVERS = ("highs", "scip")
+QP_SECONDS, QP_SECONDS_PER_NNZ = 2e-3, 0.4e-6  # nominal cost of one fixed-face QP (reference machine)
+WALL_CAP = 4.0  # a solve stops at this many times its nominal budget, plus one second
 
 
 @dataclass(frozen=True, eq=False)
@@ -29,8 +44,10 @@ class Plan:
 
     Attributes
     ----------
-    status : "optimal", "time_limit", "infeasible", "error" or "fallback" (the caller
-        reused the previous plan shifted by one step; see :meth:`shifted`).
+    status : "optimal" (certified gap <= tolerance), "feasible" (collision-free, within the
+        limits, gap above the tolerance: the budget ran out), "infeasible", "error" or
+        "fallback" (the caller reused the previous plan shifted by one step; see
+        :meth:`shifted`).
     objective : Eq. (7) in m^2; lower_bound : certified; gap : ``(obj - lb) / max(obj, 1)``.
     iterations : master MILPs solved; solve_seconds : wall time.
     controls : (T, 3) N, ``u_{t+tau|t}``; means : (T, 6) ``mu_{t+tau+1|t}`` (Eq. 6, 8b);
@@ -73,8 +90,8 @@ class Plan:
 
 
 class Guidance:
-    """Problem (P1) for one world, dynamics and settings: each horizon length's model is
-    built and compiled once (lazily; ~30 ms), then re-solved with new parameters.
+    """Problem (P1) for one world, dynamics and settings: each horizon length's program is
+    assembled once (lazily; ~2 ms), then re-solved with new parameters.
 
     ``plan`` is a pure function of its arguments (no state carries over between calls),
     so plans are reproducible whatever order targets or trials are solved in.
@@ -84,21 +101,30 @@ class Guidance:
         if solver not in SOLVERS:
             raise ValueError(f"unknown guidance solver {solver!r}; choose from {SOLVERS}")
         self.world, self.dynamics, self.cfg, self.solver = world, dynamics, cfg, solver
+        self.geom = geometry(world, dynamics, cfg)
         self._models: dict[int, tuple] = {}
         self._cold: dict[bytes, Plan] = {}  # plans without warm start: a pure function of the inputs
-        self.p1, self.reach, self.oa = self._model(cfg.horizon)
+        self.reach, self.oa = self._model(cfg.horizon)
 
     def _model(self, horizon: int):
-        """``(p1, reach, oa)`` for a horizon length (``oa`` None for SCIP)."""
+        """``(reach, oa)`` for a horizon length (``oa`` is the cvxpy model for SCIP)."""
         if horizon not in self._models:
-            cfg, dyn = replace(self.cfg, horizon=horizon), self.dynamics
-            p1 = build_p1(self.world, dyn, cfg)
-            g = p1.geom
-            reach = Reach.build(dyn.dt, dyn.friction, dyn.mass, horizon, p1.rho_model, cfg.speed_max,
-                                cfg.force_max / KN, g.area_lo, g.area_hi)
-            oa = OuterApproximation(p1, reach, cfg.gap, cfg.time_limit) if self.solver == "highs" else None
-            self._models[horizon] = (p1, reach, oa)
+            dyn, g, rho = self.dynamics, self.geom, self.cfg.rho * KN**2
+            reach = Reach.build(dyn.dt, dyn.friction, dyn.mass, horizon, rho, self.cfg.speed_max,
+                                self.cfg.force_max / KN, g.area_lo, g.area_hi)
+            if self.solver == "scip":
+                oa = build_p1(self.world, dyn, replace(self.cfg, horizon=horizon))
+            else:
+                c = assemble_p1(g, dyn.dt, dyn.friction, dyn.mass, horizon, rho, self.cfg.force_max / KN)
+                oa = OuterApproximation(c, g, reach, self.cfg.gap)
+            self._models[horizon] = (reach, oa)
         return self._models[horizon]
+
+    def budget(self, horizon: int, seconds: float, master: bool) -> Budget:
+        """A :class:`Budget` of ``seconds`` nominal QP time for this horizon's program."""
+        _, oa = self._model(horizon)
+        per_qp = QP_SECONDS + QP_SECONDS_PER_NNZ * oa.c.a.nnz
+        return Budget(max(1, int(seconds / per_qp)), time.perf_counter() + WALL_CAP * seconds + 1.0, master)
 
     def horizon_at(self, step: int) -> int:
         """Horizon of the re-plan at mission step ``step`` (0 = the first plan).
@@ -114,7 +140,8 @@ class Guidance:
              horizon: int | None = None) -> Plan:
         """Solve P1 from the belief ``N(mean (6,), cov (6, 6))`` (Eq. 8c) to ``goal (3,)``.
 
-        ``warm``: the previous plan of this target (its faces and terms, shifted one step).
+        ``warm``: the previous plan of this target (its faces and terms, shifted one step);
+        with it the solve spends ``replan_budget_s``, without it ``time_limit_s``.
         ``horizon``: the plan's length (default: the mission's T).
         """
         t0 = time.perf_counter()
@@ -132,17 +159,18 @@ class Guidance:
         return plan
 
     def _plan(self, mean, cov, goal, warm, horizon, t0) -> Plan:
-        p1, _, oa = self._model(horizon)
+        _, oa = self._model(horizon)
         x0 = np.array([mean[0], mean[1], mean[3], mean[4]])
         z_means, _ = self.dynamics.predict_moments(mean, cov, np.zeros((horizon, 3)))
         if np.any(np.abs(z_means[:, 2]) > GROUND_BAND_M):
             why = f"target is not on the ground (|z| > {GROUND_BAND_M} m within the horizon)"
             return self._failed("error", t0, why)
         if self.solver == "scip":
-            status, obj, lb, u, faces, terms, it, msg = self._solve_scip(p1, x0, goal[:2])
+            status, obj, lb, u, faces, terms, it, msg = self._solve_scip(oa, x0, goal[:2])
         else:
             shifted = None if warm is None or warm.faces is None else _shift_warm(warm, horizon)
-            sol = oa.solve(x0, goal[:2], shifted)
+            seconds = self.cfg.time_limit if warm is None else self.cfg.replan_budget
+            sol = oa.solve(x0, goal[:2], self.budget(horizon, seconds, master=warm is None), shifted)
             status, obj, lb, it, msg = sol.status, sol.objective, sol.lower_bound, sol.iterations, sol.message
             u, faces, terms = (None, None, None) if sol.plan is None else (sol.plan.u, sol.plan.y, sol.plan.s)
         if u is None:
@@ -157,7 +185,7 @@ class Guidance:
         return Plan(status, np.inf, lower, np.inf, 0, time.perf_counter() - t0, None, None, None, message=message)
 
     def _in_margin(self, mean1: np.ndarray) -> bool:
-        g = self.p1.geom
+        g = self.geom
         return bool(np.any(np.all((mean1[:2] >= g.lo) & (mean1[:2] <= g.hi), axis=1)))
 
     def _solve_scip(self, p, x0, goal):
@@ -180,18 +208,23 @@ class Guidance:
             return "error", np.inf, np.nan, None, None, None, 0, f"SCIP: {status}"
         obj = float(p.problem.value)
         lb = obj if status == cp.OPTIMAL else np.nan
-        y = np.round(p.y.value).reshape(p.horizon - 1, -1, 4)
+        n = len(p.geom.kept)
+        y = np.round(p.y.value).reshape(p.horizon - 1, n, 4) if n else np.zeros((p.horizon - 1, 0, 4))
         terms = np.r_[p.e.value, p.d.value.reshape(-1, order="F")]
-        return ("optimal" if status == cp.OPTIMAL else "time_limit"), obj, lb, p.u.value, y, terms, 0, "SCIP via cvxpy"
+        return ("optimal" if status == cp.OPTIMAL else "feasible"), obj, lb, p.u.value, y, terms, 0, "SCIP via cvxpy"
 
 
-def _shift_warm(plan: Plan, horizon: int) -> tuple[np.ndarray, np.ndarray]:
-    """Faces and terms of ``plan`` one step on, fitted to a plan of ``horizon`` steps:
-    step tau of the new plan is step tau + 1 of the old one; missing steps repeat the
-    last one (receding horizon) and surplus steps are dropped (shrinking horizon)."""
+def _shift_warm(plan: Plan, horizon: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Faces, terms and planned points of ``plan`` one step on, fitted to a plan of
+    ``horizon`` steps: step tau of the new plan is step tau + 1 of the old one; missing
+    steps repeat the last one (receding horizon) and surplus steps are dropped (shrinking
+    horizon).  Points are ``(T-1, 2)`` positions for steps 2..T."""
     rows = horizon - 1
-    faces = plan.faces[1:]
-    faces = np.concatenate([faces, np.repeat(plan.faces[-1:], max(rows - len(faces), 0), axis=0)])[:rows]
+
+    def fit(a: np.ndarray) -> np.ndarray:
+        return np.concatenate([a, np.repeat(a[-1:], max(rows - len(a), 0), axis=0)])[:rows]
+
     d = plan.terms[2:].reshape(2, -1)[:, 1:]  # [d_x..., d_y...] (cvxpy's column-major order), shifted
     d = np.concatenate([d, np.zeros((2, max(rows - d.shape[1], 0)))], axis=1)[:, :rows]
-    return faces, np.r_[plan.terms[:2], d.reshape(-1)]
+    # old means[k] is p_{k+1}; the new plan's step tau = r + 2 is the old step r + 3 = means[r + 2]
+    return fit(plan.faces[1:]), np.r_[plan.terms[:2], d.reshape(-1)], fit(plan.means[2:, :2])

@@ -1,10 +1,18 @@
-"""P1 compiled once by cvxpy into matrices HiGHS and Clarabel can take.
+"""P1 as matrices HiGHS and Clarabel can take: ``row_lo <= a z <= row_hi``,
+``col_lo <= z <= col_hi``, objective ``sum_k w_k z[term_k]^2``.
 
-cvxpy refuses to hand a mixed-integer QP to HiGHS (HiGHS has no MIQP), but its HiGHS QP
-interface compiles one perfectly well once told binaries are allowed.  The compiled
-program is ``row_lo <= a z <= row_hi``, ``col_lo <= z <= col_hi``, objective
-``sum_k w_k z[term_k]^2``.  Only right-hand sides depend on the parameters, affinely; the
-map is read off cvxpy's parametric program once, so a re-plan costs a 6-column matvec.
+Two routes to the same program:
+
+* :func:`assemble_p1` writes the sparse rows of Eq. (8b)-(8f) directly (about 1 ms per
+  horizon length), which is what the solver uses: a shrinking horizon needs a program
+  for every length 2..T, and compiling each through cvxpy cost ~60 ms, 3 s in all.
+* :func:`compile_p1` reads the same program off the cvxpy model of :mod:`.model` (the
+  readable statement of P1, also handed to SCIP); the tests check that both give the
+  same optima.  cvxpy refuses to hand a mixed-integer QP to HiGHS (HiGHS has no MIQP),
+  but its HiGHS QP interface compiles one once told binaries are allowed.
+
+Only right-hand sides depend on the parameters ``theta = [x0 (4), goal (2)]``, affinely,
+so a re-plan costs a 6-column matvec.
 """
 
 from __future__ import annotations
@@ -17,7 +25,7 @@ import numpy as np
 import scipy.sparse as sp
 from cvxpy.reductions.solvers.qp_solvers.highs_qpif import HIGHS as _HighsQp
 
-from .model import P1
+from .model import KN, P1, Geometry
 
 INF = highspy.kHighsInf
 
@@ -100,7 +108,7 @@ def compile_p1(p1: P1) -> Compiled:
     n = a.shape[1]
     col_lo = np.full(n, -INF) if data["lower_bounds"] is None else np.asarray(data["lower_bounds"], float)
     col_hi = np.full(n, INF) if data["upper_bounds"] is None else np.asarray(data["upper_bounds"], float)
-    y_cols = _cols(pp, p1.y)
+    y_cols = _cols(pp, p1.y) if p1.y.id in pp.var_id_to_col else np.zeros((p1.horizon - 1, 0), int)
     col_lo[y_cols], col_hi[y_cols] = 0.0, 1.0
     diag = data["P"].diagonal()
     if sp.triu(data["P"], 1).nnz or sp.tril(data["P"], -1).nnz:
@@ -127,6 +135,102 @@ def compile_p1(p1: P1) -> Compiled:
         term_w=diag[term_cols] / 2.0, n_terms_e=len(e_cols), x_cols=_cols(pp, p1.x),
         u_cols=_cols(pp, p1.u), sum_rows=sum_rows.astype(np.int32), row_y=row_y,
     )
+
+
+def assemble_p1(geom: Geometry, dt: float, friction: float, mass: float, horizon: int, rho: float,
+                force_max: float) -> Compiled:
+    """The program of :func:`compile_p1`, written row by row (see module docstring).
+
+    Columns: ``x (T+1, 4)`` row-major, ``u (T, 2)``, ``e (2,)``, ``d (T-1, 2)`` stored
+    column-major as cvxpy does (all d_x, then all d_y), ``y (T-1, n, 4)``.  Rows, in
+    order: start (8c), position and velocity dynamics (8b), terminal error, control
+    increments, force bounds, speed polygon, area (8f), avoidance (8d) and one face per
+    obstacle and step (8e).  ``rho`` and ``force_max`` in the model's units (kN).
+    """
+    t, n = horizon, len(geom.face_offsets)
+    x_cols = np.arange((t + 1) * 4).reshape(t + 1, 4)
+    u_cols = x_cols.size + np.arange(t * 2).reshape(t, 2)
+    e_cols = u_cols.size + x_cols.size + np.arange(2)
+    d_cols = e_cols[-1] + 1 + np.arange((t - 1) * 2).reshape(2, t - 1).T  # column-major, as cvxpy
+    y_cols = d_cols.size + e_cols[-1] + 1 + np.arange((t - 1) * n * 4).reshape(t - 1, n * 4)
+    n_cols = y_cols.size + d_cols.size + e_cols[-1] + 1
+    rows = _Rows()
+    k = np.arange(t)
+    rows.eq(x_cols[0].reshape(4, 1), [1.0], param=np.eye(4, 6))  # x_0 = x0
+    for i in range(2):  # p_{k+1} - p_k - dt v_k = 0 and v_{k+1} - (1 - eps) v_k - gain u_k = 0
+        rows.eq(np.c_[x_cols[k + 1, i], x_cols[k, i], x_cols[k, 2 + i]], [1.0, -1.0, -dt])
+        rows.eq(np.c_[x_cols[k + 1, 2 + i], x_cols[k, 2 + i], u_cols[k, i]], [1.0, -(1.0 - friction), -dt * KN / mass])
+    rows.eq(np.c_[e_cols, x_cols[t, :2]], [1.0, -1.0], param=-np.eye(2, 6, 4))  # e = p_T - goal
+    kd = np.arange(t - 1)
+    for i in range(2):
+        rows.eq(np.c_[d_cols[kd, i], u_cols[kd + 1, i], u_cols[kd, i]], [1.0, -1.0, 1.0])
+    rows.box(u_cols.reshape(-1, 1), [1.0], -force_max, force_max)
+    v = x_cols[1:, 2:]  # (T, 2) velocities after each control
+    dirs = geom.speed_dirs
+    rows.box(np.repeat(v, len(dirs), axis=0), np.tile(dirs, (t, 1)), -INF, geom.speed_bound)
+    for i in range(2):
+        rows.box(x_cols[2:, i:i + 1], [1.0], geom.area_lo[i], geom.area_hi[i])
+    row_y = np.full(rows.count, -1)
+    if n:
+        # -(a_i . p) - M_i y <= -b_i for face i of obstacle j at step r (tau = r + 2)
+        r, j, i = np.unravel_index(np.arange((t - 1) * n * 4), (t - 1, n, 4))
+        axis, sign = np.array([0, 0, 1, 1])[i], np.array([1.0, -1.0, 1.0, -1.0])[i]
+        cols = np.c_[x_cols[r + 2, axis], y_cols.reshape(-1)]
+        coef = np.c_[-sign, -geom.big_m[j, i]]
+        first = rows.count
+        rows.box(cols, coef, -INF, -geom.face_offsets[j, i])
+        row_y = np.r_[row_y, np.arange(len(r))]
+        sums = first + len(r)
+        rows.box(y_cols.reshape(-1, 4), np.ones(4), -INF, 3.0)  # Eq. (8e) without the z-faces
+        row_y = np.r_[row_y, np.full(rows.count - len(row_y), -1)]
+        sum_rows = np.arange(sums, rows.count)
+    else:
+        sum_rows = np.zeros(0, int)
+    a, lo0, hi0, lo_map, hi_map = rows.build(n_cols)
+    col_lo, col_hi = np.full(n_cols, -INF), np.full(n_cols, INF)
+    col_lo[y_cols], col_hi[y_cols] = 0.0, 1.0
+    term_cols = np.r_[e_cols, d_cols.T.reshape(-1)].astype(np.int32)
+    return Compiled(
+        a=a, lo0=lo0, hi0=hi0, lo_map=lo_map, hi_map=hi_map,
+        param_rows=np.flatnonzero(np.any(lo_map != 0, axis=1)).astype(np.int32),
+        col_lo=col_lo, col_hi=col_hi, y_cols=y_cols.astype(np.int32), term_cols=term_cols,
+        term_w=np.r_[1.0, 1.0, np.full(2 * (t - 1), rho)], n_terms_e=2, x_cols=x_cols, u_cols=u_cols,
+        sum_rows=sum_rows.astype(np.int32), row_y=row_y,
+    )
+
+
+class _Rows:
+    """Sparse rows collected in blocks: ``cols (r, k)`` with coefficients ``(k,)`` or
+    ``(r, k)``; bounds per block; ``param (rows_per_block..., 6)`` the RHS map."""
+
+    def __init__(self):
+        self.blocks, self.count = [], 0
+
+    def box(self, cols, coef, lo, hi, param=None):
+        cols = np.atleast_2d(np.asarray(cols))
+        coef = np.broadcast_to(np.asarray(coef, float), cols.shape)
+        r = cols.shape[0]
+        self.blocks.append((cols, coef, np.broadcast_to(lo, (r,)), np.broadcast_to(hi, (r,)),
+                            np.zeros((r, 6)) if param is None else np.asarray(param, float)))
+        self.count += r
+
+    def eq(self, cols, coef, param=None):
+        cols = np.atleast_2d(np.asarray(cols))
+        self.box(cols, coef, 0.0, 0.0, param)
+
+    def build(self, n_cols):
+        cols = np.concatenate([b[0].reshape(-1) for b in self.blocks])
+        data = np.concatenate([b[1].reshape(-1) for b in self.blocks])
+        rows = np.concatenate([np.repeat(np.arange(b[0].shape[0]), b[0].shape[1]) for b in self.blocks])
+        starts = np.cumsum([0] + [b[0].shape[0] for b in self.blocks[:-1]])
+        rows = rows + np.repeat(starts, [b[0].size for b in self.blocks])
+        a = sp.csr_matrix((data, (rows, cols)), shape=(self.count, n_cols))
+        a.sum_duplicates()
+        lo = np.concatenate([b[2] for b in self.blocks]).astype(float)
+        hi = np.concatenate([b[3] for b in self.blocks]).astype(float)
+        param = np.concatenate([b[4] for b in self.blocks])
+        eq = lo == hi
+        return a, lo, hi, np.where(eq[:, None], param, 0.0), np.where(eq[:, None], param, 0.0)
 
 
 def new_highs(**options) -> highspy.Highs:

@@ -93,16 +93,28 @@ class Reach:
         return lo, hi
 
 
-def prune(face_lo: np.ndarray, face_hi: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+def stuck_pairs(face_hi: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(T-1, n)`` bool: (step, obstacle) pairs where no reachable point is beyond any face,
+    i.e. the target cannot be out of that inflated obstacle at that step whatever it does
+    (a start inside or against it).  The solver drops those avoidance constraints rather
+    than declaring the plan infeasible; the plan leaves the obstacle as soon as it can."""
+    return ~(face_hi[:, None, :] >= b).any(axis=2)
+
+
+def prune(face_lo: np.ndarray, face_hi: np.ndarray, b: np.ndarray,
+          stuck: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray] | None:
     """Fix the binaries the reachable set decides.  Returns ``(y_lo, y_hi)`` of shape
     ``(T-1, n, 4)`` or None when some step has no reachable face (infeasible).
 
     * a face no reachable point can satisfy cannot be the active one: ``y = 1``;
     * if every reachable point satisfies face i, the obstacle cannot be hit at that
       step: activate i (``y_i = 0``, a redundant constraint), switch the others off;
-    * a single remaining face must be the active one (Eq. 8e).
+    * a single remaining face must be the active one (Eq. 8e);
+    * ``stuck`` pairs (:func:`stuck_pairs`, decided once per solve) have every face off.
     """
     reachable = face_hi[:, None, :] >= b  # (T-1, n, 4)
+    if stuck is not None:
+        reachable = reachable & ~stuck[..., None]
     surely = face_lo[:, None, :] >= b
     y_lo = (~reachable).astype(float)
     y_hi = np.ones_like(y_lo)
@@ -112,7 +124,7 @@ def prune(face_lo: np.ndarray, face_hi: np.ndarray, b: np.ndarray) -> tuple[np.n
     y_lo = np.where(free[..., None], (~onehot).astype(float), y_lo)
     y_hi = np.where(free[..., None], y_lo, y_hi)
     n_open = (y_lo == 0).sum(axis=2)
-    if np.any(n_open == 0):
+    if np.any((n_open == 0) & (True if stuck is None else ~stuck)):
         return None
     single = (n_open == 1)[..., None] & (y_lo == 0)
     y_hi = np.where(single, 0.0, y_hi)
@@ -122,12 +134,14 @@ def prune(face_lo: np.ndarray, face_hi: np.ndarray, b: np.ndarray) -> tuple[np.n
 def choose_faces(points: np.ndarray, b: np.ndarray, y_lo: np.ndarray, y_hi: np.ndarray) -> np.ndarray:
     """A complete face choice: per step and obstacle, the allowed face with the largest
     slack ``a_i . p - b_i`` at ``points (T-1, 2)`` (the face the point is most clearly
-    beyond).  Returns y (T-1, n, 4) in {0, 1} within the bounds."""
+    beyond).  Pairs with no allowed face (stuck, see :func:`prune`) stay all off.
+    Returns y (T-1, n, 4) in {0, 1} within the bounds."""
     slack = np.where(y_lo == 0, _slack(points, b), -np.inf)
     forced = y_hi == 0
     slack = np.where(forced.any(axis=2, keepdims=True), np.where(forced, np.inf, -np.inf), slack)
     pick = np.argmax(slack, axis=2)
-    return (np.arange(4)[None, None, :] != pick[..., None]).astype(float)
+    y = (np.arange(4)[None, None, :] != pick[..., None]).astype(float)
+    return np.where((y_lo == 1).all(axis=2, keepdims=True), 1.0, y)
 
 
 
@@ -166,7 +180,7 @@ def extend_faces(y: np.ndarray, points: np.ndarray, b: np.ndarray, y_lo: np.ndar
     face (the detour grows).
     """
     slack = _slack(points, b)
-    violated = np.all(slack < -1e-7, axis=2)
+    violated = np.all(slack < -1e-7, axis=2) & (y_lo == 0).any(axis=2)  # stuck pairs may be inside
     if not violated.any():
         return None
     y = y.copy()

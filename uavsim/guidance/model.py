@@ -51,9 +51,8 @@ import numpy as np
 
 from ..config import GuidanceConfig
 from ..targets import Dynamics
-from ..world import World
+from ..world import World, ground_footprints
 
-GROUND_BAND_M = 1.0  # |z| of a planned ground target stays below this (checked at solve time)
 KN = 1000.0  # model force unit: 1 kN
 
 
@@ -84,6 +83,7 @@ class Geometry:
     speed_bound: float
     area_lo: np.ndarray
     area_hi: np.ndarray
+    names: tuple[str, ...] = ()  # of the obstacles kept, for messages
 
 
 FACE_NORMALS = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
@@ -92,10 +92,7 @@ FACE_NORMALS = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
 def geometry(world: World, dynamics: Dynamics, cfg: GuidanceConfig) -> Geometry:
     """Inflated obstacles, tight big-M and the speed polygon (see module docstring)."""
     margin = cfg.speed_max * dynamics.dt / 2.0 + cfg.clearance
-    z_lo, z_hi = world.obstacle_lo[:, 2] - margin, world.obstacle_hi[:, 2] + margin
-    kept = np.flatnonzero((z_lo < -GROUND_BAND_M) & (z_hi > GROUND_BAND_M))
-    lo = world.obstacle_lo[kept, :2] - margin
-    hi = world.obstacle_hi[kept, :2] + margin
+    kept, lo, hi = ground_footprints(world.obstacle_lo, world.obstacle_hi, margin)
     offsets = np.stack([hi[:, 0], -lo[:, 0], hi[:, 1], -lo[:, 1]], axis=1)
     a_lo, a_hi = world.area_lo[:2], world.area_hi[:2]
     # min over the area of a_i . p: +x -> x_min, -x -> -x_max, +y -> y_min, -y -> -y_max
@@ -107,6 +104,7 @@ def geometry(world: World, dynamics: Dynamics, cfg: GuidanceConfig) -> Geometry:
         face_offsets=offsets, big_m=offsets - area_min,
         speed_dirs=np.column_stack([np.cos(ang), np.sin(ang)]),
         speed_bound=cfg.speed_max * np.cos(np.pi / k), area_lo=a_lo, area_hi=a_hi,
+        names=tuple(world.obstacle_names[i] for i in kept),
     )
 
 
@@ -152,7 +150,8 @@ def build_p1(world: World, dynamics: Dynamics, cfg: GuidanceConfig, fixed_faces:
     e = cp.Variable(2, name="e")
     d = cp.Variable((t - 1, 2), name="d")
     shape = (t - 1, max(4 * n, 1))
-    y = cp.Parameter(shape, name="y") if fixed_faces else cp.Variable(shape, boolean=True, name="y")
+    # without obstacles there are no binaries: y is an unused Parameter and P1 is a QP
+    y = cp.Parameter(shape, name="y") if fixed_faces or not n else cp.Variable(shape, boolean=True, name="y")
     x0 = cp.Parameter(4, name="x0")
     goal = cp.Parameter(2, name="goal")
     pos, vel = x[:, :2], x[:, 2:]
@@ -178,8 +177,6 @@ def build_p1(world: World, dynamics: Dynamics, cfg: GuidanceConfig, fixed_faces:
         ]
         if not fixed_faces:
             cons.append(y @ per_obstacle <= 3)  # Eq. (8e)
-    elif not fixed_faces:
-        cons.append(y == 0)
     rho_model = cfg.rho * KN**2
     problem = cp.Problem(cp.Minimize(cp.sum_squares(e) + rho_model * cp.sum_squares(d)), cons)
     return P1(problem, x, u, e, d, y, x0, goal, rho_model, geom, t)

@@ -1,14 +1,20 @@
-"""Exact solution of Problem (P1): QP branch-and-bound, then outer approximation (OA).
+"""Exact solution of Problem (P1) within a budget: QP branch-and-bound, outer approximation.
 
 P1's objective is ``f = sum_k w_k s_k^2`` over affine terms ``s`` (terminal error e,
-control increments d) on a mixed-binary polyhedron.  Every solve:
+control increments d) on a mixed-binary polyhedron.  Every solve, counting its QPs
+against a :class:`Budget`:
 
-1. finds an upper bound: QPs with the faces fixed (:mod:`.qp`) for the previous plan's
-   faces, two dives from the obstacle-free optimum and a corner local search;
-2. certifies it by a small branch-and-bound over the faces the reachable set of plans
-   with ``f <= UB`` leaves undecided, each node a QP (:meth:`OuterApproximation._branch`);
-   on the paper mission this settles every warm re-plan we measured;
-3. if that tree outgrows its budget, runs OA, which alternates two problems:
+1. finds upper bounds: QPs with the faces fixed (:mod:`.qp`) for the previous plan's
+   faces; for a first plan, the faces along the shortest topologically distinct routes
+   round the inflated obstacles (:mod:`uavsim.routes`); two dives from the obstacle-free
+   optimum; a corner local search.  A world (or a start) whose obstacle-free optimum is
+   clear of every obstacle is solved by that one QP;
+2. certifies the best by a best-first branch-and-bound over the faces the reachable set
+   of plans with ``f <= UB`` leaves undecided, each node a QP
+   (:meth:`OuterApproximation._branch`).  Stopped by the budget, it reports the least
+   bound of its open nodes: the plan's certified gap (status "feasible" above tolerance);
+3. only where ``bnb_nodes`` caps that tree (a cross-check of the method), outer
+   approximation (OA) alternates two problems until the gap closes:
 
 * **master (HiGHS MILP, lower bound).**  Each ``s_k^2`` becomes an epigraph variable
   ``t_k >= 2 a s_k - a^2`` (tangent cuts); ``sum_k w_k t_k <= f`` everywhere, so the
@@ -19,23 +25,31 @@ control increments d) on a mixed-binary polyhedron.  Every solve:
   ``f(s*)`` (the tangent plane at ``s*`` is minimised at ``s*`` over the same convex set),
   so no face choice comes back and the loop is finite.
 
-It stops when ``(UB - LB) / max(UB, 1) <= gap`` (objective in m^2: near zero the gap is
-absolute in m^2).
+On the two hardest first plans of generated worlds we met (seeds 12 and 31, a target
+behind walls), the tree certified the optimum with about 500-600 QPs (5-6 s under load)
+where one HiGHS master MILP ran 100 s, so the tree is the default engine and the master
+a tested alternative.  Gaps are ``(UB - LB) / max(UB, 1)`` (objective in m^2: near zero
+the gap is absolute in m^2).
 
-What makes OA fast (largest effect first, measured on the paper mission):
+Starts inside an inflated obstacle (an estimate can be; a start against a wall can be
+unable to leave the margin in time): where no reachable point is beyond any face of an
+obstacle at some step (:func:`.faces.stuck_pairs`), that avoidance constraint is dropped
+at that step, so the plan leaves as soon as the force limit allows; the plan says so.
 
-* an upper bound before any MILP (step 1 above, :func:`.faces.extend_faces`);
+What makes the tree and the master fast (measured on the paper mission):
+
+* an upper bound before any branching (step 1 above, :func:`.faces.extend_faces`);
+* binaries fixed where the reachable set decides them (:func:`.faces.prune`), big-M per
+  step tightened to the reachable set (:func:`.faces.tight_big_m`), and ``|s_k| <=
+  sqrt(UB / w_k)``.  The backward part of the reachable set and the bounds on ``s`` hold
+  for every plan with ``f <= UB``, the optimum included; a problem restricted to them is
+  still a relaxation of "P1 with f <= UB", so its optimum is still a valid lower bound
+  whenever it is below UB;
 * the master gets the bound as a cutoff (``objective_bound``): an infeasible master
   proves optimality.  HiGHS's feasibility-jump heuristic is switched off in the master,
   because with a cutoff it can return a solution above the cutoff and a wrong dual bound
   (highspy 1.15.1); a cutoff run is trusted only as "infeasible" or "optimal below the
-  cutoff";
-* binaries fixed where the reachable set decides them (:func:`.faces.prune`), big-M per
-  step tightened to the reachable set (:func:`.faces.tight_big_m`), and ``|s_k| <=
-  sqrt(UB / w_k)``.  The backward part of the reachable set and the bounds on ``s`` hold
-  for every plan with ``f <= UB``, the optimum included; a master restricted to them is
-  still a relaxation of "P1 with f <= UB", so its optimum is still a valid lower bound
-  whenever it is below UB.
+  cutoff".
 """
 
 from __future__ import annotations
@@ -49,24 +63,56 @@ import highspy
 import numpy as np
 import scipy.sparse as sp
 
-from .compiled import INF, Compiled, compile_p1, new_highs, pass_model
-from .faces import Reach, binding_faces, choose_faces, extend_faces, inside, prune, tight_big_m
-from .model import P1
+from ..routes import distinct_routes
+from .compiled import INF, Compiled, new_highs, pass_model
+from .faces import Reach, binding_faces, choose_faces, extend_faces, inside, prune, stuck_pairs, tight_big_m
+from .model import Geometry
 from .qp import FixedFaceQP, QpSolution
 
 _STATUS = highspy.HighsModelStatus
 E_GRID = np.array([0.05, 0.2, 0.5, 1.0])  # initial tangent points, as fractions of |s_k|'s bound
 NEAR_WALL_STEPS = 4  # steps 2..5 keep only obstacle + clearance when the start is near a wall
-BNB_NODES = 16  # QP branch-and-bound budget before handing over to the MILP master
+ROUTES = 3  # topologically distinct shortest routes that seed the face choices of a first plan
+
+
+@dataclass
+class Budget:
+    """What one solve may spend: ``qps`` fixed-face QPs, counted, so that a plan depends on
+    its inputs only and not on the machine's speed or load (campaigns stay bit-identical for
+    any number of workers); ``deadline`` (``time.perf_counter``) caps the wall clock as a
+    safety net, and ``capped`` records that it, not the count, stopped the solve (the plan
+    may then differ on another machine).  ``master``: whether the MILP master may run
+    (HiGHS's root work is bounded by time only, so only cold plans use it).  A solve with
+    no feasible plan yet keeps going past ``qps`` until the deadline."""
+
+    qps: int
+    deadline: float
+    master: bool = False
+    capped: bool = False
+
+    def take(self, need: bool = False) -> bool:
+        """Spend one QP if the count allows (or ``need``: no plan yet), before the deadline."""
+        if time.perf_counter() > self.deadline:
+            self.capped = True
+            return False
+        if self.qps <= 0 and not need:
+            return False
+        self.qps -= 1
+        return True
+
+    @property
+    def left(self) -> bool:
+        return self.qps > 0 and time.perf_counter() <= self.deadline
 
 
 @dataclass(frozen=True, eq=False)
 class Solution:
     """Result of one P1 solve (model units: m, m/s, kN).
 
-    status : "optimal" (certified gap <= tolerance), "time_limit" (feasible plan, gap
-    above tolerance), "stalled" (feasible plan; solver tolerances stopped progress, gap
-    reported), "infeasible" (proved), "error" (no plan).
+    status : "optimal" (certified gap <= tolerance), "feasible" (a collision-free plan
+    within the limits whose certified gap is above the tolerance: the budget ran out, or
+    solver tolerances stopped progress; the message says which), "infeasible" (proved),
+    "error" (no plan).
     """
 
     status: str
@@ -78,16 +124,33 @@ class Solution:
     message: str = ""
 
 
+@dataclass(eq=False)
+class _Context:
+    """One solve's inputs, shared by its pieces: row bounds ``lo, hi``, face offsets
+    ``b (T-1, n, 4)``, ``stuck (T-1, n)`` pairs, the obstacle-free optimum, the start,
+    the goal, the budget and the cut points met so far."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    b: np.ndarray
+    stuck: np.ndarray
+    relax: QpSolution
+    x0: np.ndarray
+    goal: np.ndarray
+    budget: Budget
+    points: list
+
+
 class OuterApproximation:
     """P1 compiled once; :meth:`solve` for each new start state and goal."""
 
-    def __init__(self, p1: P1, reach: Reach, gap: float, time_limit: float, bnb_nodes: int = BNB_NODES):
-        self.p1, self.reach, self.gap, self.time_limit = p1, reach, gap, time_limit
-        self.bnb_nodes = bnb_nodes  # QPs the branch-and-bound may solve before OA takes over
-        self.c: Compiled = compile_p1(p1)
+    def __init__(self, c: Compiled, geom: Geometry, reach: Reach, gap: float, bnb_nodes: int | None = None):
+        self.geom, self.reach, self.gap = geom, reach, gap
+        self.bnb_nodes = bnb_nodes  # QPs the branch-and-bound may solve before OA takes over (None: the budget)
+        self.c = c
         self.qp = FixedFaceQP(self.c)
-        self.offsets = p1.geom.face_offsets
-        self.shape = (p1.horizon - 1, self.offsets.shape[0], 4)
+        self.offsets = geom.face_offsets
+        self.shape = (reach.horizon - 1, self.offsets.shape[0], 4)
         c, k = self.c, len(self.c.term_cols)
         self.a_master = sp.hstack([c.a, sp.csr_matrix((c.a.shape[0], k))]).tocsr()
         self.a_master.sort_indices()
@@ -96,21 +159,23 @@ class OuterApproximation:
         is_y = np.isin(self.a_master.indices, c.y_cols.ravel()) & (c.row_y[rows] >= 0)
         self.m_pos = np.flatnonzero(is_y)
         self.m_flat = c.row_y[rows[is_y]]
-        self.m_model = np.broadcast_to(p1.geom.big_m[None], self.shape).reshape(-1)
+        self.m_model = np.broadcast_to(geom.big_m[None], self.shape).reshape(-1)
         self.cost = np.r_[np.zeros(c.n_cols), c.term_w]
         self.integrality = np.zeros(c.n_cols + k)
         self.integrality[c.y_cols.ravel()] = 1
         self.avoid_rows = np.flatnonzero(c.row_y >= 0)
 
     # ------------------------------------------------------------------ public
-    def solve(self, x0: np.ndarray, goal: np.ndarray, warm: tuple[np.ndarray, np.ndarray] | None = None) -> Solution:
-        """Solve P1 from ``x0 = [p_x, p_y, v_x, v_y]`` towards ``goal (2,)``.
+    def solve(self, x0: np.ndarray, goal: np.ndarray, budget: Budget,
+              warm: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> Solution:
+        """Solve P1 from ``x0 = [p_x, p_y, v_x, v_y]`` towards ``goal (2,)`` within ``budget``.
 
-        ``warm = (y, s)``: the previous plan's faces ``(T-1, n, 4)`` and terms ``(K,)``,
-        shifted by one step; the faces are tried first and the terms seed the cuts.  The
-        solver keeps no other state: a solve depends on its arguments only.
+        ``warm = (y, s, points)``: the previous plan's faces ``(T-1, n, 4)``, terms ``(K,)``
+        and positions ``(T-1, 2)``, shifted by one step; the faces are tried first and the
+        terms seed the cuts.  The
+        solver keeps no other state: a solve depends on its arguments (and, only when the
+        wall-clock cap stops it, on time).
         """
-        t_end = time.perf_counter() + self.time_limit
         p1_pos = x0[:2] + self.reach.dt * x0[2:]
         b, shrink = self._offsets(p1_pos)
         lo, hi = self.c.rows(np.r_[x0, goal])
@@ -119,17 +184,28 @@ class OuterApproximation:
         if relax is None:
             return Solution("infeasible", np.inf, np.inf, np.inf, 0, None,
                             "no plan meets the speed, force and area limits even without obstacles")
-        bounds = prune(*self.reach.face_bounds(x0, goal), b)
-        if bounds is None:
-            return Solution("infeasible", np.inf, relax.f, np.inf, 0, None,
-                            "at some step every reachable point is inside an inflated obstacle")
-        points = [relax.s] + ([warm[1]] if warm is not None else [])
-        best = self._upper_bound(lo, hi, relax, None if warm is None else warm[0], bounds, b, points)
-        sol = self._loop(best, relax, (lo, hi), goal, x0, points, b, t_end)
+        if self.shape[1] == 0:  # no obstacle on the ground: P1 is the QP
+            return Solution("optimal", relax.f, relax.f, 0.0, 0, relax)
+        face_lo, face_hi = self.reach.face_bounds(x0, goal)
+        stuck = stuck_pairs(face_hi, b)
+        if not np.any((inside(relax.x[2:, :2], b) > 1e-7) & ~stuck):  # the obstacle-free optimum is clear
+            y = choose_faces(relax.x[2:, :2], b, *prune(face_lo, face_hi, b, stuck))
+            return Solution("optimal", relax.f, relax.f, 0.0, 0, replace(relax, y=y))
+        hi[self.c.sum_rows] = np.where(stuck.reshape(-1), 4.0, 3.0)  # Eq. (8e) off for stuck pairs
+        bounds = prune(face_lo, face_hi, b, stuck)
+        ctx = _Context(lo, hi, b, stuck, relax, x0, goal, budget, [relax.s] + ([warm[1]] if warm is not None else []))
+        best = self._upper_bound(ctx, warm, bounds)
+        sol = self._loop(ctx, best)
+        notes = [sol.message] if sol.message else []
         if shrink.any() and sol.plan is not None:
-            sol = replace(sol, message=(sol.message + "; " if sol.message else "")
-                          + f"start near a wall: steps 2-{NEAR_WALL_STEPS + 1} keep only the clearance margin")
-        return sol
+            notes.append(f"start near a wall: steps 2-{NEAR_WALL_STEPS + 1} keep only the clearance margin")
+        if stuck.any() and sol.plan is not None:
+            names = ", ".join(f"'{self.geom.names[k]}'" for k in np.flatnonzero(stuck.any(axis=0)))
+            last = int(np.flatnonzero(stuck.any(axis=1))[-1]) + 2
+            notes.append(f"start inside the margin of {names}: avoided from step {last + 1}")
+        if budget.capped:
+            notes.append("stopped by the wall-clock cap, not the work budget: may differ on another machine")
+        return replace(sol, message="; ".join(notes))
 
     def _offsets(self, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Face offsets ``b (T-1, n, 4)`` of every step, and the per-row relaxation.
@@ -139,7 +215,7 @@ class OuterApproximation:
         For that obstacle, steps 2..``NEAR_WALL_STEPS + 1`` then only keep clear of the
         obstacle by the clearance; later steps have the full margin again.
         """
-        g = self.p1.geom
+        g = self.geom
         reach = self.reach.v_max * self.reach.dt
         near = np.all((p1 >= g.lo - reach) & (p1 <= g.hi + reach), axis=1)  # (n,)
         cut = np.zeros(self.shape[:2])
@@ -151,49 +227,75 @@ class OuterApproximation:
         return b, shrink
 
     # ------------------------------------------------------------------ pieces
-    def _upper_bound(self, lo, hi, relax, warm_y, bounds, b, points) -> QpSolution | None:
-        """Best plan among: the warm face choice, and two dives from the obstacle-free
-        optimum (:func:`.faces.extend_faces`, nearest side and runner-up side).  Each is
-        polished by re-reading the faces off its plan while that improves it.  Every plan
-        met on the way appends its terms to ``points`` (cut points for the master)."""
-        y_lo, y_hi = bounds
-        candidates = [self.qp.solve(lo, hi, warm_y)] if warm_y is not None and self._fits(warm_y, bounds) else []
-        candidates += [self._dive(lo, hi, relax, bounds, b, rank) for rank in (0, 1)]
-        best = None
-        for inc in candidates:
-            best = self._polish(lo, hi, inc, best, bounds, b, points)
-        return self._corner_search(lo, hi, best, bounds, b, points) if best is not None else None
+    def _qp(self, ctx: "_Context", y: np.ndarray, best: QpSolution | None) -> QpSolution | None:
+        """The fixed-face QP, if the budget allows (always while no plan exists yet)."""
+        if not ctx.budget.take(need=best is None):
+            return None
+        sol = self.qp.solve(ctx.lo, ctx.hi, y)
+        if sol is not None:
+            ctx.points.append(sol.s)
+        return sol
 
-    def _polish(self, lo, hi, inc, best, bounds, b, points, rounds=3) -> QpSolution | None:
+    def _upper_bound(self, ctx: "_Context", warm, bounds) -> QpSolution | None:
+        """Best plan among: the previous plan's faces (or, where they no longer fit the
+        reachable set, the faces its shifted points lie beyond), and two dives from the
+        obstacle-free optimum (:func:`.faces.extend_faces`, nearest side and runner-up side).
+        Each is polished by re-reading the faces off its plan while that improves it; then
+        a local search at the corners.  Stops early when the budget runs out with a plan."""
+        best = None
+        if warm is not None:
+            y = warm[0] if self._fits(warm[0], bounds) else choose_faces(warm[2], ctx.b, *bounds)
+            best = self._polish(ctx, self._qp(ctx, y, best), best, bounds)
+        if warm is None or best is None:
+            for y in self._route_faces(ctx, bounds):
+                best = self._polish(ctx, self._qp(ctx, y, best), best, bounds)
+        for rank in (0, 1):
+            if best is not None and not ctx.budget.left:
+                break
+            best = self._polish(ctx, self._dive(ctx, bounds, rank, best), best, bounds)
+        return self._corner_search(ctx, best, bounds) if best is not None else None
+
+    def _route_faces(self, ctx, bounds) -> list[np.ndarray]:
+        """Face choices along the :data:`ROUTES` shortest topologically distinct routes
+        round the inflated obstacles (:func:`uavsim.routes.distinct_routes`), from the first
+        planned position to the goal.  Step tau is placed on a route at the fraction of the
+        route the obstacle-free optimum has covered by then (same speed profile, longer
+        path); each step takes, per obstacle, the allowed face that point is most clearly
+        beyond.  Dives from the straight line find only the detours nearest to it; a route
+        round the far side of a wall, or through a corridor, comes from here."""
+        g, x = self.geom, ctx.relax.x[1:, :2]  # planned positions of steps 1..T
+        routes = distinct_routes(x[0], ctx.goal, g.lo, g.hi, g.area_lo, g.area_hi, k=ROUTES)
+        cum = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(x, axis=0), axis=1))]
+        frac = cum[1:] / cum[-1] if cum[-1] > 1e-9 else np.linspace(0.0, 1.0, len(cum))[1:]
+        return [choose_faces(r.at(frac * r.length), ctx.b, *bounds) for r in routes]
+
+    def _polish(self, ctx, inc, best, bounds, rounds=3) -> QpSolution | None:
         """Re-read the faces off a plan and re-solve while that improves on ``best``."""
         for _ in range(rounds):
-            if inc is None:
-                break
-            points.append(inc.s)
-            if best is not None and inc.f >= best.f * (1 - 1e-9):
+            if inc is None or (best is not None and inc.f >= best.f * (1 - 1e-9)):
                 break
             best = inc
-            inc = self.qp.solve(lo, hi, choose_faces(inc.x[2:, :2], b, *bounds))
+            inc = self._qp(ctx, choose_faces(inc.x[2:, :2], ctx.b, *bounds), best)
         return best
 
-    def _corner_search(self, lo, hi, best, bounds, b, points, budget=12) -> QpSolution:
+    def _corner_search(self, ctx, best, bounds, tries=12) -> QpSolution:
         """Local search at the corners: where the plan touches face i of an obstacle,
         try the two perpendicular faces at that step instead (a path rounding a corner
         one step earlier or later).  On the paper mission the start heuristics were
         suboptimal in 30% of re-plans, almost always by such a one-step corner shift."""
         tried = 0
         improved = True
-        while improved and tried < budget:
+        while improved and tried < tries and ctx.budget.left:
             improved = False
-            for r, j, i in binding_faces(best.x[2:, :2], best.y, b):
+            for r, j, i in binding_faces(best.x[2:, :2], best.y, ctx.b):
                 for alt in ((2, 3) if i < 2 else (0, 1)):
-                    if bounds[0][r, j, alt] != 0 or tried >= budget:
+                    if bounds[0][r, j, alt] != 0 or tried >= tries:
                         continue
                     y = best.y.copy()
                     y[r, j, :] = 1.0
                     y[r, j, alt] = 0.0
                     tried += 1
-                    better = self._polish(lo, hi, self.qp.solve(lo, hi, y), best, bounds, b, points)
+                    better = self._polish(ctx, self._qp(ctx, y, best), best, bounds)
                     if better is not best:
                         best, improved = better, True
                         break
@@ -205,31 +307,43 @@ class OuterApproximation:
     def _fits(y, bounds) -> bool:
         return bool(np.all((y >= bounds[0]) & (y <= bounds[1])))
 
-    def _dive(self, lo, hi, relax, bounds, b, rank, max_steps=12) -> QpSolution | None:
+    def _dive(self, ctx, bounds, rank, best, max_steps=12) -> QpSolution | None:
         """Switch faces on only where the current plan is inside an obstacle, re-solve,
         repeat until collision-free; then complete the choice with the faces the plan
         satisfies (its optimum does not change: those constraints are already met)."""
         y_lo, y_hi = bounds
         y = np.where(y_hi == 0, 0.0, 1.0)  # faces the pruning forces on
-        sol = relax if not (y == 0).any() else self.qp.solve(lo, hi, y)
+        sol = ctx.relax if not (y == 0).any() else self._qp(ctx, y, best)
         for _ in range(max_steps):
             if sol is None:
                 return None
-            nxt = extend_faces(y, sol.x[2:, :2], b, y_lo, rank)
+            nxt = extend_faces(y, sol.x[2:, :2], ctx.b, y_lo, rank)
             if nxt is None:
-                full = choose_faces(sol.x[2:, :2], b, np.where(y == 0, 0.0, y_lo), np.where(y == 0, 0.0, y_hi))
+                full = choose_faces(sol.x[2:, :2], ctx.b, np.where(y == 0, 0.0, y_lo), np.where(y == 0, 0.0, y_hi))
                 return replace(sol, y=full)
             y = nxt
-            sol = self.qp.solve(lo, hi, y)
+            sol = self._qp(ctx, y, best)
         return None
 
-    def _loop(self, best, relax, rows, goal, x0, points, b, t_end) -> Solution:
-        it, lower = 0, relax.f
+    def _loop(self, ctx, best) -> Solution:
+        """Certify the incumbent by branch-and-bound over the undecided faces within the
+        budget; the outer-approximation master takes over only where ``bnb_nodes`` caps
+        the tree (cold plans)."""
+        best, lower, settled = self._branch(ctx, best)
+        if best is None and settled:
+            return Solution("infeasible", np.inf, np.inf, np.inf, 0, None, "no collision-free plan exists")
         if best is not None:
-            best, proved = self._branch(rows, goal, x0, best, relax, b, points, t_end)
-            if proved:
-                tol = self.gap * max(best.f, 1.0)
+            tol = self.gap * max(best.f, 1.0)
+            if settled or best.f - lower <= tol:
                 return self._finish("optimal", best, max(lower, best.f - tol * (1 - 1e-9)), 0)
+        if not ctx.budget.master or not ctx.budget.left:
+            return self._finish("feasible", best, lower, 0, "work budget reached")
+        return self._outer(ctx, best, lower)
+
+    def _outer(self, ctx, best, lower) -> Solution:
+        """Outer approximation: alternate the HiGHS master MILP (lower bound) and the QP
+        with the master's faces fixed (upper bound) until the gap closes."""
+        it = 0
         tried = [] if best is None else [best.y]  # face choices evaluated by the QP
         dead = []  # face choices whose QP is infeasible: excluded by no-good cuts
         while True:
@@ -237,11 +351,12 @@ class OuterApproximation:
             tol = self.gap * max(ub, 1.0)
             if best is not None and ub - lower <= tol:
                 return self._finish("optimal", best, lower, it)
-            remaining = t_end - time.perf_counter()
-            if remaining <= 0:
-                return self._finish("time_limit", best, lower, it)
+            remaining = ctx.budget.deadline - time.perf_counter()
+            if remaining <= 0 or (best is not None and ctx.budget.qps <= 0):
+                ctx.budget.capped |= remaining <= 0
+                return self._finish("feasible", best, lower, it, "budget reached")
             cutoff = ub - tol * (1 - 1e-9) if best is not None else np.inf  # round-off: reported gap <= tol
-            master = self._master(rows, goal, x0, ub, relax, np.vstack(points), dead, b, remaining, cutoff, best)
+            master = self._master(ctx, ub, np.vstack(ctx.points), dead, remaining, cutoff, best)
             if master is None:  # the reachable set of plans with f <= UB is empty
                 return self._finish("optimal", best, max(lower, cutoff), it)
             master.run()
@@ -254,59 +369,67 @@ class OuterApproximation:
                     return Solution("infeasible", np.inf, np.inf, np.inf, it, None, "no collision-free plan exists")
                 return self._finish("optimal", best, max(lower, cutoff), it)
             if status == _STATUS.kTimeLimit:
-                return self._finish("time_limit", best, max(lower, info.mip_dual_bound), it)
+                ctx.budget.capped = True
+                return self._finish("feasible", best, max(lower, info.mip_dual_bound), it, "budget reached")
             if status != _STATUS.kOptimal:
-                return self._finish("error", best, lower, it, f"master MILP: {master.modelStatusToString(status)}")
+                return self._finish("feasible" if best is not None else "error", best, lower, it,
+                                    f"master MILP: {master.modelStatusToString(status)}")
             lower = max(lower, info.mip_dual_bound)
             z = np.asarray(master.getSolution().col_value)
             y = np.round(z[self.c.y_cols.ravel()]).reshape(self.shape)
             if any(np.array_equal(y, t) for t in tried):  # no progress possible: report the gap
-                return self._finish("optimal" if ub - lower <= tol else "stalled", best, lower, it,
+                return self._finish("optimal" if ub - lower <= tol else "feasible", best, lower, it,
                                     "master repeated a face choice (solver tolerances)")
             tried.append(y)
-            inc = self.qp.solve(*rows, y)
-            points.append(z[self.c.term_cols])
+            ctx.points.append(z[self.c.term_cols])
+            ctx.budget.qps -= 1
+            inc = self.qp.solve(ctx.lo, ctx.hi, y)
             if inc is None:
                 dead.append(y)
                 continue
-            points.append(inc.s)
+            ctx.points.append(inc.s)
             if best is None or inc.f < best.f:
                 best = inc
 
-    def _branch(self, rows, goal, x0, best, relax, b, points, t_end):
-        """Certify (or improve) the incumbent by a small exact branch-and-bound.
+    def _branch(self, ctx, best) -> tuple[QpSolution | None, float, bool]:
+        """Certify (or improve, or find) the incumbent by an exact best-first
+        branch-and-bound over the faces.
 
         Binaries the reachable set of plans with ``f <= UB`` does not decide are left
         out; a node's QP switches on only the faces branched so far, so its optimum bounds
         every completion from below.  The deepest violated (step, obstacle) pair is
-        branched on, one child per reachable face; a violation-free node is a plan.  When
-        the open nodes all bound at or above the cutoff, the incumbent is optimal within
-        the gap.  Cheap when few pairs are undecided (the usual warm re-plan, where the
-        HiGHS master would spend ~0.2 s in root work); gives up after ``bnb_nodes`` QPs.
-        Returns ``(best, proved)``.
+        branched on, one child per reachable face; a violation-free node is a plan.
+        Returns the best plan (None if none is known), a certified lower bound (the least
+        bound of the open nodes) and whether the tree was settled (every open node bounds
+        at or above the cutoff: the plan is optimal within the gap, or no plan exists).
+        Spends the budget's QPs, or at most ``bnb_nodes`` of them when that is set.
         """
-        lo, hi = rows
-        bounds = prune(*self.reach.face_bounds(x0, goal, best.f, (relax.x[2:, :2], relax.f)), b)
-        if bounds is None:
-            return best, False
+        ub = np.inf if best is None else best.f
+        relaxed = None if best is None else (ctx.relax.x[2:, :2], ctx.relax.f)
+        bounds = prune(*self.reach.face_bounds(ctx.x0, ctx.goal, ub, relaxed), ctx.b, ctx.stuck)
+        cutoff = np.inf if best is None else best.f - self.gap * max(best.f, 1.0) * (1 - 1e-9)
+        if bounds is None:  # no plan with f <= UB beyond the incumbent
+            return best, min(cutoff, ub), True
         y_lo, y_hi = bounds
-        cutoff = best.f - self.gap * max(best.f, 1.0) * (1 - 1e-9)
         ticket = itertools.count()  # heap tie-breaker: nodes never compare their arrays
-        heap, solved = [(relax.f, next(ticket), np.where(y_hi == 0, 0.0, 1.0))], 0
+        heap, solved = [(ctx.relax.f, next(ticket), np.where(y_hi == 0, 0.0, 1.0))], 0
+        open_pair = (y_lo == 0).any(axis=2)  # pairs with a face to choose (not stuck)
+        limit = np.inf if self.bnb_nodes is None else self.bnb_nodes
         while heap:
-            bound, _, y = heapq.heappop(heap)
+            bound = heap[0][0]
             if bound >= cutoff:
-                return best, True  # best-first: every open node bounds at or above the cutoff
-            if solved >= self.bnb_nodes or time.perf_counter() > t_end:
-                return best, False
-            sol = self.qp.solve(lo, hi, y)
+                return best, cutoff, True  # best-first: every open node bounds at or above the cutoff
+            if solved >= limit or not ctx.budget.take():
+                return best, bound, False
+            _, _, y = heapq.heappop(heap)
+            sol = self.qp.solve(ctx.lo, ctx.hi, y)
             solved += 1
             if sol is None or sol.f >= cutoff:
                 continue
-            points.append(sol.s)
-            depth = np.where((y == 1).all(axis=2), inside(sol.x[2:, :2], b), -np.inf)  # open pairs only
+            ctx.points.append(sol.s)
+            depth = np.where((y == 1).all(axis=2) & open_pair, inside(sol.x[2:, :2], ctx.b), -np.inf)
             if not np.any(depth > 1e-7):  # violation-free: a better plan
-                full = choose_faces(sol.x[2:, :2], b, np.where(y == 0, 0.0, y_lo), np.where(y == 0, 0.0, y_hi))
+                full = choose_faces(sol.x[2:, :2], ctx.b, np.where(y == 0, 0.0, y_lo), np.where(y == 0, 0.0, y_hi))
                 best = replace(sol, y=full)
                 cutoff = best.f - self.gap * max(best.f, 1.0) * (1 - 1e-9)
                 continue
@@ -315,19 +438,19 @@ class OuterApproximation:
                 child = y.copy()
                 child[r, j, i] = 0.0
                 heapq.heappush(heap, (sol.f, next(ticket), child))
-        return best, True
+        return best, min(cutoff, np.inf if best is None else best.f), True
 
-    def _master(self, rows, goal, x0, ub, relax, points, dead, b, time_limit, cutoff, best) -> highspy.Highs | None:
+    def _master(self, ctx, ub, points, dead, time_limit, cutoff, best) -> highspy.Highs | None:
         """The master MILP for the current upper bound: pruned binaries, per-step big-M,
         bounded terms, tangent cuts at ``points (P, K)`` and a grid, no-good cuts."""
         c = self.c
-        face_lo, face_hi = self.reach.face_bounds(x0, goal, ub, (relax.x[2:, :2], relax.f))
-        bounds = prune(face_lo, face_hi, b)
+        face_lo, face_hi = self.reach.face_bounds(ctx.x0, ctx.goal, ub, (ctx.relax.x[2:, :2], ctx.relax.f))
+        bounds = prune(face_lo, face_hi, ctx.b, ctx.stuck)
         if bounds is None:
             return None
         y_lo, y_hi = bounds
         a = self.a_master.copy()
-        m_new = tight_big_m(face_lo, b).reshape(-1)
+        m_new = tight_big_m(face_lo, ctx.b).reshape(-1)
         a.data[self.m_pos] *= m_new[self.m_flat] / self.m_model[self.m_flat]
         s_max = np.sqrt(ub / c.term_w) if np.isfinite(ub) else np.full(len(c.term_w), 1e4)
         grid = np.r_[-E_GRID[::-1], 0.0, E_GRID][:, None] * s_max[None, :]
@@ -347,9 +470,8 @@ class OuterApproximation:
         if best is not None:
             options |= dict(mip_heuristic_run_rins=False, mip_heuristic_run_rens=False, objective_bound=cutoff)
         h = new_highs(**options)
-        lo, hi = rows
-        pass_model(h, sp.vstack([a, cuts]).tocsr(), self.cost, col_lo, col_hi, np.r_[lo, cut_lo],
-                   np.r_[hi, np.full(len(cut_lo), INF)], self.integrality)
+        pass_model(h, sp.vstack([a, cuts]).tocsr(), self.cost, col_lo, col_hi, np.r_[ctx.lo, cut_lo],
+                   np.r_[ctx.hi, np.full(len(cut_lo), INF)], self.integrality)
         if best is not None and np.all((best.y >= y_lo) & (best.y <= y_hi)):
             cols = c.y_cols.ravel()
             h.setSolution(len(cols), cols, best.y.reshape(-1))
@@ -378,7 +500,7 @@ class OuterApproximation:
 
     def _finish(self, status, best, lower, it, message="") -> Solution:
         if best is None:
-            why = message or "no feasible plan found in the time limit"
+            why = message or "no feasible plan found within the budget"
             return Solution("error", np.inf, lower, np.inf, it, None, why)
         gap = max(best.f - lower, 0.0) / max(best.f, 1.0)
         return Solution(status, best.f, lower, gap, it, best, message)
