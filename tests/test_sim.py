@@ -151,8 +151,24 @@ def test_bad_command_lines_exit_2(tmp_path, capsys, argv, fragment):
 
 
 def test_failed_first_replan_coasts_and_is_logged():
-    """A belief inside an obstacle has no plan and no previous plan to fall back on: the
-    filter predicts with zero force and the step logs why, instead of raising."""
+    """A belief with no plan (here lifted 5 m off the ground, which P1 refuses) and no
+    previous plan to fall back on: the filter predicts with zero force and the step logs
+    why, instead of raising."""
+    m = small(steps=1)
+    from uavsim.sim import Simulation
+
+    sim = Simulation(m, "optimized")
+    sim.reset(1)
+    sim.est.particles[0, :, 2] = 5.0
+    info = sim.step()
+    assert info.plans[0].status == "fallback" and np.all(info.plans[0].controls == 0)
+    assert any("T1 (estimate): no plan" in e and "coasting" in e for e in info.events)
+    assert np.all(np.isfinite(info.mean))
+
+
+def test_a_belief_inside_an_obstacle_plans_its_way_out():
+    """An estimate can lie inside an obstacle (a true target cannot): the re-plan drops the
+    avoidance only where it cannot hold and flies out, no fallback, no event."""
     m = small(steps=1)
     from uavsim.sim import Simulation
 
@@ -160,15 +176,16 @@ def test_failed_first_replan_coasts_and_is_logged():
     sim.reset(1)
     sim.est.particles[0, :, :2] = [375.0, 520.0]  # target 0's whole belief inside obstacle A
     info = sim.step()
-    assert info.plans[0].status == "fallback" and np.all(info.plans[0].controls == 0)
-    assert any("T1 (estimate): no plan" in e and "coasting" in e for e in info.events)
-    assert np.all(np.isfinite(info.mean))
+    assert info.plans[0].ok and info.plans[0].status in ("optimal", "feasible")
+    assert "start inside the margin of 'A'" in info.plans[0].message
+    assert not any("plan" in e for e in info.events)
 
 
-def test_truth_without_a_plan_is_a_mission_error(tmp_path, capsys):
+def test_a_prior_that_only_crashes_is_a_mission_error(tmp_path, capsys):
     """A target 0.5 m west of obstacle A heading into it at 10 m/s passes validation (it
-    is outside the obstacle) but cannot be planned: exit 2 naming the target's key.  Its
-    prior is made tight, so the true start drawn from it is this start to 1 mm."""
+    is outside the obstacle), but with a tight prior every true start drawn from it hits
+    the obstacle within its first step, which no force can change: exit 2 naming the
+    target's prior."""
     text = write_small_mission(tmp_path).read_text()
     text = text.replace("position_m = [281.0, 925.0, 0.0]",
                         "position_m = [299.5, 520.0, 0.0]\nvelocity_mps = [10.0, 0.0, 0.0]")
@@ -180,7 +197,7 @@ def test_truth_without_a_plan_is_a_mission_error(tmp_path, capsys):
         assert main(["run", str(path), "--trials", "2", "--steps", "1", "--workers", workers, "--quiet",
                      "--out", str(tmp_path / workers)]) == 2
         err = capsys.readouterr().err
-        assert err.startswith(f"error: {path}: targets[0].position_m: no guidance plan from this start"), err
+        assert err.startswith(f"error: {path}: targets[0].cov0_si: none of 1000 draws from the prior"), err
 
 
 CLUTTER_FREE = ROOT / "missions" / "paper_clutterfree.toml"

@@ -77,10 +77,11 @@ def trial_seeds(seed: int, trials: int) -> list[np.random.SeedSequence]:
 
 # --------------------------------------------------------------------------- one trial
 def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSequence,
-              guidance: Guidance | None = None, on_step=None) -> TrialResult:
-    """Run one trial (BLAS single-threaded); ``on_step(info)`` sees every step."""
+              guidance: Guidance | None = None, on_step=None, oracle: bool = False) -> TrialResult:
+    """Run one trial (BLAS single-threaded); ``on_step(info)`` sees every step; ``oracle``
+    see :class:`uavsim.sim.Simulation`."""
     with threadpool_limits(limits=1, user_api="blas"):
-        sim = Simulation(mission, planner, guidance)
+        sim = Simulation(mission, planner, guidance, oracle)
         info = sim.reset(seed)
         if on_step:
             on_step(info)

@@ -70,13 +70,16 @@ class Simulation:
     Parameters
     ----------
     mission : validated mission; planner : one of :data:`PLANNERS`;
-    guidance : a shared :class:`Guidance` (it is stateless; building one costs ~30 ms).
+    guidance : a shared :class:`Guidance` (it is stateless; building one costs ~30 ms);
+    oracle : the filter predicts with the true targets' own forces instead of re-planning
+        from its estimate (a diagnostic: it separates tracking errors due to guidance from
+        the rest; ``benchmarks/worlds.py`` uses it).
     """
 
-    def __init__(self, mission: Mission, planner: str, guidance: Guidance | None = None):
+    def __init__(self, mission: Mission, planner: str, guidance: Guidance | None = None, oracle: bool = False):
         if planner not in PLANNERS:
             raise ValueError(f"unknown planner {planner!r}; choose from {', '.join(PLANNERS)}")
-        self.m, self.planner = mission, planner
+        self.m, self.planner, self.oracle = mission, planner, oracle
         self.guidance = guidance or Guidance(mission.world, mission.dynamics, mission.guidance)
         self.goals = np.array([mission.world.goals[t.goal].centroid for t in mission.targets])
 
@@ -100,7 +103,7 @@ class Simulation:
         self.plans: list[Plan | None] = [None] * len(m.targets)
         self.truth_plans: list[Plan | None] = [None] * len(m.targets)
         if m.truth == "planned":
-            self.truth_path = self._noise_free_paths(self.truth)
+            self.truth_path = self._noise_free_plans(self.truth)
         self.uav = self._start(np.random.default_rng(uav_ss))
         self.route = manoeuvre_route(self.planner, self.uav, m.planner.manoeuvres, m.uav, m.world, m.path) \
             if self.planner in MANOEUVRES else None
@@ -110,15 +113,21 @@ class Simulation:
 
     def _true_start(self, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray) -> np.ndarray:
         """(M, 6) true initial states: per target the first of ``START_DRAWS`` draws from
-        ``N(mean, cov)`` whose position is outside every obstacle (a fixed number of draws,
-        so the stream does not depend on where the obstacles are)."""
+        ``N(mean, cov)`` that is outside every obstacle and stays out during its first step
+        ``p + v dt``, which no force can change (a target cannot start inside a wall or
+        about to hit one).  A fixed number of draws, so the stream does not depend on where
+        the obstacles are."""
         z = rng.standard_normal((START_DRAWS, *means.shape))  # (D, M, 6)
         draws = means + np.einsum("mij,dmj->dmi", np.linalg.cholesky(covs), z)
-        free = ~self.m.world.in_obstacle(draws[..., :3])  # (D, M)
+        world = self.m.world
+        p0 = world.on_ground(draws[..., :3])
+        p1 = world.on_ground(p0 + self.m.dynamics.dt * draws[..., 3:])
+        free = ~world.in_obstacle(p0) & ~world.segment_blocked(p0, p1)  # (D, M)
         if not free.any(axis=0).all():
             j = int(np.argmin(free.any(axis=0)))
             raise MissionError(self.m.path, f"targets[{j}].cov0_si",
-                               f"none of {START_DRAWS} draws from the prior is outside the obstacles")
+                               f"none of {START_DRAWS} draws from the prior is outside the obstacles "
+                               "and clear of them after one step")
         return draws[np.argmax(free, axis=0), np.arange(len(means))]
 
     def _start(self, rng: np.random.Generator, tries: int = 10_000) -> np.ndarray:
@@ -138,16 +147,16 @@ class Simulation:
         raise MissionError(self.m.path, "uav.random_start",
                            f"no free start found in {tries} draws: the operating region is (nearly) all obstacle")
 
-    def _noise_free_paths(self, starts: np.ndarray) -> list[np.ndarray]:
-        """Per target, the noise-free plan from ``starts`` as a (T, 6) path of states."""
-        paths = []
+    def _noise_free_plans(self, starts: np.ndarray) -> list[Plan]:
+        """Per target, the noise-free plan from ``starts`` (its means are the true path)."""
+        plans = []
         for j, x in enumerate(starts):
             plan = self.guidance.plan(x, np.zeros((6, 6)), self.goals[j])
             if not plan.ok:
                 raise MissionError(self.m.path, f"targets[{j}].position_m",
                                    f"no guidance plan from this start for the truth ({plan.status}: {plan.message})")
-            paths.append(plan.means)
-        return paths
+            plans.append(plan)
+        return plans
 
     def _observers(self) -> np.ndarray:
         if self.planner == "fixed-sensors":
@@ -160,34 +169,41 @@ class Simulation:
     def step(self) -> StepInfo:
         m, sec, events = self.m, {}, []
         t0 = time.perf_counter()
-        mean, cov = self.est.moments()
-        self.plans = [self._replan(j, mean[j], cov[j], self.plans[j], events, "estimate") for j in range(len(mean))]
-        sec["guidance"] = time.perf_counter() - t0
+        truth_controls = self._truth_controls(events)
+        sec["truth"] = time.perf_counter() - t0
 
         t1 = time.perf_counter()
-        controls = np.array([p.controls[0] for p in self.plans])
-        dyn = m.dynamics
-        self.est.predict(self.rng_filter, dyn.a, dyn.b, dyn.q_chol, controls)
-        sec["filter"] = time.perf_counter() - t1
+        if not self.oracle:
+            mean, cov = self.est.moments()
+            self.plans = [self._replan(j, mean[j], cov[j], self.plans[j], events, "estimate")
+                          for j in range(len(mean))]
+        sec["guidance"] = time.perf_counter() - t1
 
         t2 = time.perf_counter()
-        cands, scores = self._move_uav()
-        sec["planner"] = time.perf_counter() - t2
+        controls = truth_controls if self.oracle else np.array([p.controls[0] for p in self.plans])
+        dyn = m.dynamics
+        self.est.predict(self.rng_filter, dyn.a, dyn.b, dyn.q_chol, controls)
+        sec["filter"] = time.perf_counter() - t2
 
         t3 = time.perf_counter()
-        self._move_truth(events)
-        sec["truth"] = time.perf_counter() - t3
+        cands, scores = self._move_uav()
+        sec["planner"] = time.perf_counter() - t3
 
         t4 = time.perf_counter()
+        self._move_truth(truth_controls)
+        sec["truth"] += time.perf_counter() - t4
+
+        t5 = time.perf_counter()
         observers = self._observers()
         sensor = m.planner.fixed_sensors.sensor if self.planner == "fixed-sensors" else m.sensor
         scans = [observe(self.rng_sensor, sensor, self.truth[:, :3], o) for o in observers]
         self._update(scans, observers, sensor, events)
         mean, cov = self.est.moments()
-        sec["filter"] += time.perf_counter() - t4
+        sec["filter"] += time.perf_counter() - t5
         sec["total"] = time.perf_counter() - t0
         self.t += 1
-        return StepInfo(self.t, self.truth.copy(), mean, cov, observers, scans, self.plans, cands, scores, sec, events,
+        plans = [] if self.oracle else self.plans
+        return StepInfo(self.t, self.truth.copy(), mean, cov, observers, scans, plans, cands, scores, sec, events,
                         self._particles())
 
     def _particles(self) -> np.ndarray | None:
@@ -239,15 +255,25 @@ class Simulation:
             self.uav = self.route.position(self.t + 1)
         return None, None
 
-    def _move_truth(self, events: list[str]) -> None:
+    def _truth_controls(self, events: list[str]) -> np.ndarray:
+        """(M, 3) the forces the true targets apply this step: their noise-free plans'
+        (``planned``; re-planned from the end when the mission outlasts them), or a fresh
+        plan from each true state (``stochastic``)."""
         if self.m.truth == "planned":
-            k = self.t % len(self.truth_path[0])
+            k = self.t % len(self.truth_path[0].controls)
             if self.t and k == 0:  # the mission outlasts the horizon: plan on from the end
-                self.truth_path = self._noise_free_paths(self.truth)
-            self.truth = np.array([path[k] for path in self.truth_path])
-            return
+                self.truth_path = self._noise_free_plans(self.truth)
+            return np.array([plan.controls[k] for plan in self.truth_path])
         zero = np.zeros((6, 6))
         self.truth_plans = [self._replan(j, x, zero, self.truth_plans[j], events, "truth")
                             for j, x in enumerate(self.truth)]
-        controls = np.array([p.controls[0] for p in self.truth_plans])
+        return np.array([p.controls[0] for p in self.truth_plans])
+
+    def _move_truth(self, controls: np.ndarray) -> None:
+        """Eq. (1): noise-free along the plan (``planned``: exactly its mean path), or with
+        process noise (``stochastic``)."""
+        if self.m.truth == "planned":
+            k = self.t % len(self.truth_path[0].controls)
+            self.truth = np.array([plan.means[k] for plan in self.truth_path])
+            return
         self.truth = self.m.dynamics.step(self.truth, controls, rng=self.rng_truth)

@@ -182,6 +182,14 @@ class World:
         p = np.asarray(points)
         return np.all((p >= self.area_lo) & (p <= self.area_hi), axis=-1)
 
+    def on_ground(self, points: np.ndarray) -> np.ndarray:
+        """Ground positions ``(..., 3)`` with z raised to the area's floor if below it: a
+        ground target's z is ~1e-5 m either side of 0, and a point a hair below an
+        obstacle's bottom face at the floor must not count as passing under it."""
+        p = np.array(points, dtype=float)
+        p[..., 2] = np.maximum(p[..., 2], self.area_lo[2])
+        return p
+
     def in_obstacle(self, points: np.ndarray) -> np.ndarray:
         """(...,) bool: point inside any (closed) obstacle, i.e. Eq. (5) fails for one."""
         if self.n_obstacles == 0:
