@@ -1,0 +1,235 @@
+"""Guidance and the closed loop on generated worlds (issue 12): every figure per world and overall.
+
+    python benchmarks/worlds.py [--worlds 50] [--trials 2] [--steps 50] [--workers N] [--out runs/worlds]
+
+World s is ``uavsim world generate --seed s --obstacles s % 16 --targets 1 + s % 8``
+(written to ``OUT/worlds`` and loaded through the mission reader, as a user would).  Per
+world, each target's first plan from its prior mean is checked against an independent
+**route-fixed QP baseline**: for each of up to six topologically distinct shortest routes
+round the inflated obstacles (:func:`uavsim.routes.distinct_routes`) and three speed
+profiles along it, the faces its points lie beyond are fixed (:func:`uavsim.routes.
+faces_along`) and the cvxpy model of P1 with those faces is solved by Clarabel; the
+baseline is the best of these.  Then ``--trials`` closed-loop trials run as
+``uavsim run`` would (truth from the prior, planned), recording every guidance plan
+(the truth's first plans and every re-plan of the filter), and the same trials again with
+the filter handed the truth's own forces (``oracle``), to separate guidance from tracking.
+
+Printed and written to ``OUT/worlds.json``: per world the share of re-plans certified
+(gap <= 1e-4), feasible within budget, fallback, failed; cold and warm re-plan seconds
+per target (median, p90, p99, max); closed-loop median and mean step seconds; each
+target's time-averaged RMSE with its own guidance and with the truth's forces; whether
+each first plan ends in its goal region; collisions of any plan with any obstacle by a
+point-and-segment check against the raw cuboids (world.in_obstacle and
+world.segment_blocked, independent of the solver's inflated faces), from the first step
+a plan is required to avoid (a belief inside an obstacle's margin is allowed out first).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
+from multiprocessing import get_context
+from pathlib import Path
+
+import cvxpy as cp
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from uavsim.campaign import trial_seeds
+from uavsim.config import load_mission
+from uavsim.guidance import Guidance
+from uavsim.guidance.model import build_p1
+from uavsim.routes import distinct_routes, faces_along
+from uavsim.sim import Simulation
+from uavsim.worldgen import generate, mission_toml, world_toml
+
+ROUTES, PROFILES = 6, ("relaxed", "uniform", "late")
+
+
+def write_world(seed: int, folder: Path) -> Path:
+    gen = generate(np.random.default_rng(seed), seed % 16, 1 + seed % 8)
+    stem = f"gen-s{seed}"
+    gen = replace(gen, name=stem, seed=seed)
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"{stem}.world.toml").write_text(world_toml(gen))
+    path = folder / f"{stem}.toml"
+    path.write_text(mission_toml(gen, f"{stem}.world.toml"))
+    return path
+
+
+# --------------------------------------------------------------------------- checks
+def first_enforced_step(plan) -> int:
+    """Index into plan.positions of the first point the plan must keep out of obstacles:
+    step 2 (index 1; step 1 is fixed by the start), or later where the start was inside a
+    margin ("avoided from step k")."""
+    found = re.search(r"avoided from step (\d+)", plan.message)
+    return max(1, int(found.group(1)) - 1) if found else 1
+
+
+def collisions(world, plan) -> int:
+    """Points inside, and segments through, any raw cuboid from the first enforced step."""
+    p = world.on_ground(plan.positions[first_enforced_step(plan):])
+    return int(world.in_obstacle(p).sum() + world.segment_blocked(p[:-1], p[1:]).sum())
+
+
+def in_goal(world, target, plan) -> bool:
+    g = world.goals[target.goal]
+    end = plan.positions[-1, :2]
+    return bool(np.all(end >= g.lo) and np.all(end <= g.hi))
+
+
+def route_baseline(mission, guidance, target) -> float:
+    """Best objective of P1 with the faces fixed along distinct routes (module docstring)."""
+    g, dyn, cfg = guidance.geom, mission.dynamics, mission.guidance
+    if not len(g.kept):
+        return np.nan
+    mean, goal = target.mean0, mission.world.goals[target.goal].centroid
+    p1 = mean[:2] + dyn.dt * mean[3:5]
+    routes = distinct_routes(p1, goal, g.lo, g.hi, g.area_lo, g.area_hi, k=ROUTES)
+    model = build_p1(mission.world, dyn, cfg, fixed_faces=True)
+    model.x0.value, model.goal.value = mean[[0, 1, 3, 4]], goal[:2]
+    steps = np.arange(1, cfg.horizon)  # planned steps 2..T sit at these fractions of the route
+    best = np.inf
+    for r in routes:
+        for profile in PROFILES:
+            frac = {"uniform": steps / (cfg.horizon - 1), "late": (steps / (cfg.horizon - 1)) ** 1.5,
+                    "relaxed": np.minimum(1.0, steps / (0.8 * (cfg.horizon - 1)))}[profile]
+            face = faces_along(r.at(frac * r.length), g.lo, g.hi)  # (T-1, n)
+            y = np.ones((cfg.horizon - 1, len(g.kept), 4))
+            np.put_along_axis(y, face[..., None], 0.0, axis=2)
+            model.y.value = y.reshape(cfg.horizon - 1, -1)
+            try:
+                model.problem.solve(solver=cp.CLARABEL, canon_backend=cp.SCIPY_CANON_BACKEND)
+            except cp.error.SolverError:
+                continue
+            if model.problem.status == cp.OPTIMAL:
+                best = min(best, model.problem.value)
+    return best
+
+
+# --------------------------------------------------------------------------- one world
+def run_world(seed: int, folder: str, trials: int, steps: int) -> dict:
+    with threadpool_limits(limits=1, user_api="blas"):
+        path = write_world(seed, Path(folder))
+        m = replace(load_mission(path), steps=steps)
+        guidance = Guidance(m.world, m.dynamics, m.guidance)
+        out = {"seed": seed, "obstacles": m.world.n_obstacles, "targets": len(m.targets),
+               "area_m": (m.world.area_hi - m.world.area_lo)[:2].tolist(), "first": [], "replans": [],
+               "step_seconds": [], "collisions": 0, "rmse": [], "rmse_oracle": []}
+        for t in m.targets:  # first plans from the prior mean, against the route baseline
+            plan = guidance.plan(t.mean0, t.cov0, m.world.goals[t.goal].centroid)
+            base = route_baseline(m, guidance, t)
+            out["collisions"] += collisions(m.world, plan) if plan.ok else 0
+            out["first"].append({"status": plan.status, "objective": plan.objective, "gap": plan.gap,
+                                 "seconds": plan.solve_seconds, "in_goal": plan.ok and in_goal(m.world, t, plan),
+                                 "route_baseline": base})
+        for oracle in (False, True):
+            err2 = []
+            for seed_k in trial_seeds(m.seed, trials):
+                sim = Simulation(m, "optimized", guidance, oracle=oracle)
+                sim.reset(seed_k)
+                if not oracle:
+                    out["collisions"] += sum(collisions(m.world, plan) for plan in sim.truth_path)
+                e = []
+                for _ in range(m.steps):
+                    info = sim.step()
+                    e.append(((info.mean[:, :2] - info.truth[:, :2]) ** 2).sum(axis=1))
+                    if oracle:
+                        continue
+                    out["step_seconds"].append(info.seconds["total"])
+                    for plan in info.plans:
+                        out["collisions"] += collisions(m.world, plan)
+                        out["replans"].append({"status": plan.status, "gap": plan.gap, "seconds": plan.solve_seconds,
+                                               "warm": info.t > 1})
+                err2.append(e)
+            rmse = np.sqrt(np.mean(err2, axis=0)).mean(axis=0)  # (M,) time-averaged per target
+            out["rmse_oracle" if oracle else "rmse"] = rmse.tolist()
+        return out
+
+
+# --------------------------------------------------------------------------- report
+def shares(replans: list[dict], gap: float) -> dict:
+    status = np.array([r["status"] for r in replans])
+    gaps = np.array([r["gap"] for r in replans])
+    n = max(len(status), 1)
+    ok = np.isin(status, ("optimal", "feasible"))
+    return {"n": len(status), "certified": float(np.sum(ok & (gaps <= gap)) / n),
+            "feasible": float(np.sum(ok & (gaps > gap)) / n), "fallback": float(np.sum(status == "fallback") / n),
+            "failed": float(np.sum(~ok & (status != "fallback")) / n)}
+
+
+def quantiles(seconds) -> dict:
+    s = np.asarray(seconds, float)
+    if not len(s):
+        return {}
+    return {"median": float(np.median(s)), "p90": float(np.quantile(s, 0.9)), "p99": float(np.quantile(s, 0.99)),
+            "max": float(s.max())}
+
+
+def summarize(worlds: list[dict], gap: float) -> dict:
+    replans = [r for w in worlds for r in w["replans"]]
+    first = [f for w in worlds for f in w["first"]]
+    ratio = [f["objective"] / f["route_baseline"] for f in first
+             if np.isfinite(f["route_baseline"]) and f["route_baseline"] > 1.0]
+    rmse = np.concatenate([w["rmse"] for w in worlds])
+    oracle = np.concatenate([w["rmse_oracle"] for w in worlds])
+    four = [s for w in worlds if w["targets"] == 4 for s in w["step_seconds"]]
+    return {
+        "worlds": len(worlds), "collisions": int(sum(w["collisions"] for w in worlds)),
+        "replans": shares(replans, gap),
+        "warm_seconds": quantiles([r["seconds"] for r in replans if r["warm"]]),
+        "cold_seconds": quantiles([f["seconds"] for f in first]),
+        "first_in_goal": float(np.mean([f["in_goal"] for f in first])),
+        "first_worse_than_routes": int(np.sum(np.array(ratio) > 1 + gap)),
+        "objective_over_route_baseline": quantiles(ratio),
+        "step_seconds": {**quantiles([s for w in worlds for s in w["step_seconds"]]),
+                         "mean": float(np.mean([s for w in worlds for s in w["step_seconds"]]))},
+        "step_seconds_4_targets": {**quantiles(four), "mean": float(np.mean(four)) if four else None},
+        "rmse_over_oracle": quantiles(rmse / oracle), "targets_over_3x_oracle": int(np.sum(rmse > 3 * oracle)),
+    }
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--worlds", type=int, default=50)
+    ap.add_argument("--first", type=int, default=0, help="first seed")
+    ap.add_argument("--trials", type=int, default=2)
+    ap.add_argument("--steps", type=int, default=50)
+    ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    ap.add_argument("--out", default="runs/worlds")
+    args = ap.parse_args()
+    out = Path(args.out)
+    seeds = range(args.first, args.first + args.worlds)
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
+        worlds = list(pool.map(run_world, seeds, [str(out / "worlds")] * len(seeds), [args.trials] * len(seeds),
+                               [args.steps] * len(seeds)))
+    gap = 1e-4
+    print(f"{'seed':>4} {'obs':>3} {'tgt':>3} {'cert':>6} {'feas':>6} {'fall':>6} {'fail':>5} {'warm med':>9} "
+          f"{'p99':>6} {'max':>6} {'cold max':>8} {'step med':>8} {'in goal':>7} {'vs routes':>9} {'coll':>4} "
+          f"{'RMSE / oracle (m)'}")
+    for w in worlds:
+        s, warm = shares(w["replans"], gap), quantiles([r["seconds"] for r in w["replans"] if r["warm"]])
+        ratios = [f["objective"] / f["route_baseline"] for f in w["first"]
+                  if np.isfinite(f["route_baseline"]) and f["route_baseline"] > 1.0]
+        print(f"{w['seed']:>4} {w['obstacles']:>3} {w['targets']:>3} {s['certified']:>6.1%} {s['feasible']:>6.1%} "
+              f"{s['fallback']:>6.1%} {s['failed']:>5.1%} {warm.get('median', 0):>9.3f} {warm.get('p99', 0):>6.3f} "
+              f"{warm.get('max', 0):>6.3f} {max(f['seconds'] for f in w['first']):>8.2f} "
+              f"{np.median(w['step_seconds']):>8.3f} {np.mean([f['in_goal'] for f in w['first']]):>7.0%} "
+              f"{max(ratios, default=np.nan):>9.4f} {w['collisions']:>4} "
+              + " ".join(f"{a:.0f}/{b:.0f}" for a, b in zip(w["rmse"], w["rmse_oracle"])))
+    overall = summarize(worlds, gap)
+    print("\noverall:", json.dumps(overall, indent=1))
+    print(f"wall {time.perf_counter() - t0:.0f} s")
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "worlds.json").write_text(json.dumps({"overall": overall, "worlds": worlds}, indent=1, default=float))
+    print(f"wrote {out / 'worlds.json'}")
+
+
+if __name__ == "__main__":
+    main()
