@@ -95,7 +95,7 @@ def test_planned_truth_follows_the_plan_from_the_drawn_start():
     np.testing.assert_array_equal(stochastic.reset(seed).truth, x0)
     assert np.abs(x0[:, :2] - np.array([t.mean0[:2] for t in m.targets])).max() > 1.0
     plan = planned.guidance.plan(x0[0], np.zeros((6, 6)), planned.goals[0])
-    np.testing.assert_allclose(planned.truth_path[0], plan.means, atol=1e-9)
+    np.testing.assert_allclose(planned.truth_path[0].means, plan.means, atol=1e-9)
 
 
 # --------------------------------------------------------------------------- the baseline
