@@ -330,13 +330,18 @@ def cmd_tma_reproduce(args: argparse.Namespace) -> int:
     from .estimators.reproduce import reproduce, table
     from .plots import tma_rmse_plot
 
+    if args.runs is not None and args.runs < 2:
+        raise UsageError("--runs must be at least 2")
+    if args.name == "oh2021":
+        return _reproduce_oh2021(args)
+    for flag in OH2021_FLAGS:
+        if getattr(args, flag) is not None:
+            raise UsageError(f"--{flag} applies to oh2021 only, not {args.name}")
     if args.name in LI2022:
         return _tma_reproduce_li2022(args)
     if args.sigma_scale is not None:
         raise UsageError(f"--sigma-scale applies to the li2022 studies only, not {args.name}")
     runs = 300 if args.runs is None else args.runs
-    if runs < 2:
-        raise UsageError("--runs must be at least 2")
     _seed(args.seed)
     out = _output_folder(args.out or f"runs/{args.name}", files=("result.json", "rmse.png"))
     result = reproduce(args.name, runs, args.seed)
@@ -420,6 +425,53 @@ def _tma_reproduce_li2022(args: argparse.Namespace) -> int:
     return 0
 
 
+# --- tma reproduce oh2021: 003's batch MLE study (Figs. 4-5) ---------------------------------
+
+OH2021_FLAGS = ("targets", "sigmas", "scans", "methods", "workers")
+
+
+def _list(text: str, flag: str, kind, ok, what: str) -> tuple:
+    """``1,2,3`` -> ``(1, 2, 3)`` (repeats dropped); every item of ``kind`` and ``ok(item)``,
+    else UsageError."""
+    try:
+        items = tuple(dict.fromkeys(kind(v) for v in text.split(",")))
+    except ValueError:
+        items = ()
+    if not items or not all(ok(v) for v in items):
+        raise UsageError(f"{flag} needs a comma-separated list of {what}; got {text!r}")
+    return items
+
+
+def _reproduce_oh2021(args: argparse.Namespace) -> int:
+    from .estimators import oh2021
+    from .plots import oh2021_plots
+
+    targets = _list(args.targets, "--targets", int, lambda t: t in oh2021.TARGETS, "targets from 1, 2, 3") \
+        if args.targets else (1, 2, 3)
+    sigmas = _list(args.sigmas, "--sigmas", float, lambda s: math.isfinite(s) and 0 < s < 90,
+                   "noise std in degrees (0 < s < 90)") if args.sigmas else oh2021.SIGMAS_DEG
+    scans = _list(args.scans, "--scans", int, lambda k: 5 <= k <= 100_000, "scan counts (5..100000)") \
+        if args.scans else oh2021.SCANS
+    methods = _list(args.methods, "--methods", str, lambda m: m in oh2021.ALL_METHODS,
+                    f"methods from {', '.join(oh2021.ALL_METHODS)}") if args.methods else oh2021.METHODS
+    if args.workers is not None and args.workers < 1:
+        raise UsageError("--workers must be at least 1")
+    runs = args.runs or 1000
+
+    def progress(done, total):
+        print(f"oh2021: {done}/{total} cells", file=sys.stderr, flush=True)
+
+    _seed(args.seed)
+    out = _output_folder(args.out or "runs/oh2021", files=("result.json", "fig4_sigma.png", "fig5_scans.png"))
+    result = oh2021.study(runs, args.seed, targets, sigmas, scans, methods,
+                          workers=args.workers or os.cpu_count() or 1, progress=progress)
+    _write_json(out / "result.json", result)
+    figures = oh2021_plots(result, out)
+    print(oh2021.table(result))
+    print(f"wrote {out / 'result.json'} and " + ", ".join(str(f) for f in figures))
+    return 0
+
+
 def _campaign_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("mission")
     p.add_argument("--trials", type=int, help="Monte-Carlo trials (default: the mission's)")
@@ -477,12 +529,18 @@ def build_parser() -> argparse.ArgumentParser:
 
     tma = sub.add_parser("tma", help="the estimator library (papers 000-003)").add_subparsers(dest="tma", required=True)
     p = tma.add_parser("reproduce", help="a paper's simulation study; writes DIR/result.json and figures")
-    p.add_argument("name", choices=(*SCENARIOS, *LI2022))
-    p.add_argument("--runs", type=int, help="Monte-Carlo runs (default: the paper's; 300 huang2021, 1000 li2022)")
+    p.add_argument("name", choices=(*SCENARIOS, *LI2022, "oh2021"))
+    p.add_argument("--runs", type=int, help="Monte-Carlo runs (default: the paper's; 300 huang2021, 1000 li2022 "
+                   "and oh2021)")
     p.add_argument("--seed", type=int, default=2021, help="run r uses SeedSequence(seed).spawn(runs)[r]")
     p.add_argument("--out", help="output folder (default runs/<name>)")
     p.add_argument("--sigma-scale", metavar="RHO[,RHO...]",
                    help="li2022 only: also sweep the bearing-noise scale rho (001 Figs. 4, 8, 12; the paper: 1..10)")
+    p.add_argument("--targets", help="oh2021: targets, e.g. 1,2,3 (default all)")
+    p.add_argument("--sigmas", help="oh2021: noise std (deg) of the K = 600 sweep (default 0.1,0.3,...,1.9)")
+    p.add_argument("--scans", help="oh2021: scan counts K of the 0.5 deg sweep (default 100,200,...,600)")
+    p.add_argument("--methods", help="oh2021: from nr,pso,nrpso (default) and pso1500 (Fig. 6)")
+    p.add_argument("--workers", type=int, help="oh2021: processes over the grid's cells (default: all cores)")
     p.set_defaults(func=cmd_tma_reproduce)
 
     world = sub.add_parser("world", help="worlds and missions").add_subparsers(dest="world", required=True)

@@ -155,3 +155,45 @@ def li2022_sweep_plot(result: dict, path: Path) -> None:
         ax.set(xlabel=f"rho (label sigma_theta = rho x {per_rho:.3g} deg)", ylabel=f"time-averaged {ylabel}")
         ax.grid(alpha=0.3, which="both")
     _li_save(fig, axes, f"{result['scenario']} (cf. 001 {result['figures']}): {result['runs']} runs per rho", path)
+
+
+OH2021_STYLE = {"nr": ("m", "NRM"), "pso": ("g", "PSO"), "nrpso": ("k", "NRPSO"), "pso1500": ("b", "PSO, 1500")}
+
+
+def oh2021_plots(result: dict, out: Path) -> list[Path]:
+    """``uavsim tma reproduce oh2021``: 003 Fig. 4 (against sigma, K = 600) and Fig. 5
+    (against K, 0.5 deg): position RMSE, velocity RMSE (over runs that did not diverge,
+    CRLB dashed) and divergence (%), one row per target, in 003's colours (Fig. 6 when the
+    methods are pso, pso1500 and nrpso).  Returns the files written."""
+    written = []
+    sweeps = (("fig4_sigma.png", "sigma_deg", "scans", result["full_scans"], "noise std (deg)", "Fig. 4"),
+              ("fig5_scans.png", "scans", "sigma_deg", result["sweep_sigma_deg"], "measurements K", "Fig. 5"))
+    for name, x_key, fixed_key, fixed, xlabel, fig_name in sweeps:
+        targets = result["targets"]
+        rows = {t: sorted((c for c in result["cells"] if c["target"] == t and c[fixed_key] == fixed),
+                          key=lambda c: c[x_key]) for t in targets}
+        if all(len(r) < 2 for r in rows.values()):
+            continue
+        fig, axes = plt.subplots(len(targets), 3, figsize=(12, 3 * len(targets)), dpi=110, squeeze=False)
+        for ax_row, t in zip(axes, targets):
+            cells = rows[t]
+            x = [c[x_key] for c in cells]
+            for m in result["methods"]:
+                color, label = OH2021_STYLE.get(m, (None, m))
+                for ax, key in zip(ax_row, ("rmse_pos_m", "rmse_vel_mps", "diverged_pct")):
+                    y = [np.nan if c["methods"][m][key] is None else c["methods"][m][key] for c in cells]
+                    ax.plot(x, y, "o-", color=color, label=label, ms=3)
+            for ax, key in zip(ax_row[:2], ("crlb_pos_m", "crlb_vel_mps")):
+                ax.plot(x, [c[key] for c in cells], "--", color="0.5", label="CRLB")
+            for ax, ylabel in zip(ax_row, ("position RMSE (m)", "velocity RMSE (m/s)", "divergence (%)")):
+                ax.set(xlabel=xlabel, ylabel=ylabel, title=f"Target {t}")
+                ax.grid(alpha=0.3)
+        axes[0, 0].legend()
+        fig.suptitle(f"oh2021 (cf. 003 {fig_name}): {result['runs']} runs per point")
+        fig.tight_layout()
+        path = Path(out) / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fig.savefig(path)
+        plt.close(fig)
+        written.append(path)
+    return written
