@@ -1,0 +1,369 @@
+"""Batch maximum-likelihood TMA (estimators/batch.py) and 003's NR, PSO and NRPSO
+(estimators/nrpso.py, estimators/oh2021.py; Oh, Shi, Choi 2021).
+
+Derivatives are checked against central finite differences; the study against the
+paper's statements (Sec. 4) and the reference figures of notes/paper003-000.md, with
+bands from the binomial or chi-square spread of the run counts used here.
+"""
+
+import ast
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from uavsim.estimators import batch, nrpso, oh2021
+
+SEED = 2021
+
+
+def _geometry(order=1, k=40, runs=2, seed=0):
+    """A weaving observer, ``runs`` noisy bearing sets of one target, candidates near it."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(k) * 15.0
+    phi = batch.polynomial_basis(t, order)
+    obs = np.stack([300 * np.sin(t / 120), 4.0 * t], -1)
+    truth = np.array([3000.0, 9000, -6, 2, 0.004, -0.003][:phi.shape[2]])
+    d = phi @ truth - obs
+    z = np.arctan2(d[:, 1], d[:, 0]) + rng.normal(0, 0.02, (runs, k))
+    theta = truth + rng.normal(0, 1, (runs, 3, len(truth))) * np.array([200, 200, 1, 1, 0.002, 0.002])[:len(truth)]
+    return phi, obs, truth, z, theta
+
+
+def _fd(f, x, h):
+    """Central differences of ``f`` (vector or scalar) at ``x`` with steps ``h``."""
+    return np.stack([(f(x + e) - f(x - e)) / (2 * e.sum()) for e in np.diag(h)], -1)
+
+
+@pytest.mark.parametrize("order", [1, 2])
+def test_gradient_fisher_and_hessian_by_finite_differences(order):
+    """M against differences of lam; F against J^T J / sigma^2 with J the differenced
+    bearings (the Gauss-Newton matrix); the full Hessian against differences of M.  For
+    constant velocity (003) and constant acceleration (000's six parameters)."""
+    phi, obs, _, z, theta = _geometry(order)
+    data = batch.prepare(phi, obs, z, 0.02)
+    lam, grad, fim = batch.derivatives(data, theta)
+    hess = batch.derivatives(data, theta, hessian=True)[2]
+    h = np.array([1e-2, 1e-2, 1e-4, 1e-4, 1e-7, 1e-7])[:phi.shape[2]]
+    for r in range(2):
+        run = data.take([r])
+
+        def lam_of(y, run=run):
+            return batch.nll(run, y[None, None])[0, 0]
+
+        def grad_of(y, run=run):
+            return batch.derivatives(run, y[None, None])[1][0, 0]
+
+        def bearing_of(y, run=run):  # h = z - e
+            return -batch.residuals(run, y[None, None])[0, 0]
+
+        for p in range(3):
+            x = theta[r, p]
+            np.testing.assert_allclose(grad[r, p], _fd(lam_of, x, h), rtol=1e-6)
+            np.testing.assert_allclose(hess[r, p], _fd(grad_of, x, h), rtol=1e-5, atol=1e-6 * np.abs(hess[r, p]).max())
+            jac = _fd(bearing_of, x, h)
+            np.testing.assert_allclose(fim[r, p], jac.T @ jac / 0.02**2, rtol=1e-6, atol=1e-9 * np.abs(fim[r, p]).max())
+            e = batch.residuals(run, x[None, None])[0, 0]
+            assert lam[r, p] == pytest.approx(0.5 * np.sum(e**2) / 0.02**2, rel=1e-12)
+
+
+def test_residuals_are_wrapped_and_the_bearing_is_from_x():
+    """Bearing -pi + 0.01 (from +x): to a target due west (h = pi) the residual is
+    -2 pi + 0.01, wrapped to 0.01; to one due north (h = pi / 2), pi / 2 + 0.01."""
+    phi = batch.polynomial_basis([0.0])
+    data = batch.prepare(phi, [[0.0, 0.0]], [-np.pi + 0.01], 0.1)
+    theta = np.array([[[-1000.0, 0.0, 0.0, 0.0], [0.0, 1000.0, 0.0, 0.0]]])  # west; north (h = pi/2)
+    np.testing.assert_allclose(batch.residuals(data, theta)[0, :, 0], [0.01, -np.pi + 0.01 - np.pi / 2 + 2 * np.pi])
+
+
+def test_polynomial_basis():
+    """000 Eq. (12): Q(k) = [I, kT I, k^2 T^2 / 2 I]; 003 Eq. (2) for order 1."""
+    phi = batch.polynomial_basis([10.0, 12.0], order=2)
+    np.testing.assert_allclose(phi[1], [[1, 0, 2, 0, 2, 0], [0, 1, 0, 2, 0, 2]])
+    np.testing.assert_allclose(batch.polynomial_basis([0.0, 3.0])[1], [[1, 0, 3, 0], [0, 1, 0, 3]])
+    with pytest.raises(ValueError, match="times"):
+        batch.polynomial_basis([[0.0, 1.0]])
+
+
+def test_bad_input_is_refused():
+    phi = batch.polynomial_basis(np.arange(5.0))
+    obs = np.zeros((5, 2))
+    with pytest.raises(ValueError, match="sigma must be positive"):
+        batch.prepare(phi, obs, np.zeros(5), 0.0)
+    with pytest.raises(ValueError, match="bearings has non-finite"):
+        batch.prepare(phi, obs, [0, 0, np.nan, 0, 0], 0.1)
+    with pytest.raises(ValueError, match="observer positions"):
+        batch.prepare(phi, np.zeros((4, 2)), np.zeros(5), 0.1)
+    with pytest.raises(ValueError, match="theta must be"):
+        batch.nll(batch.prepare(phi, obs, np.zeros(5), 0.1), np.zeros((1, 4)))
+    with pytest.raises(ValueError, match="sigma must be a positive"):
+        nrpso.BatchTMA(sigma=-1.0)
+    with pytest.raises(ValueError, match="method must be"):
+        nrpso.BatchTMA(sigma=0.01, method="ga")
+
+
+def test_blocks_and_float32_agree_with_one_float64_pass():
+    """The evaluator's cache-sized blocks do not change the numbers; float32 changes lam by
+    about 1e-7 relative and the gradient by about 1e-6 of its scale."""
+    phi, obs, _, z, theta = _geometry(k=200)
+    data = batch.prepare(phi, obs, z, 0.02)
+    ref = batch.Evaluator(data, block=10**9).derivatives(theta)
+    for block in (1, 200, 700):
+        for a, b in zip(batch.Evaluator(data, block=block).derivatives(theta), ref):
+            np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
+    lam32, grad32, _ = batch.Evaluator(data.astype(np.float32)).derivatives(theta)
+    np.testing.assert_allclose(lam32, ref[0], rtol=2e-6)
+    assert np.abs(grad32 - ref[1]).max() < 1e-5 * np.abs(ref[1]).max()
+
+
+def test_cholesky_solve_and_its_failures():
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(3, 5, 4, 6))
+    a = a @ np.swapaxes(a, -1, -2) + 0.1 * np.eye(4)
+    b = rng.normal(size=(3, 5, 4))
+    x, det, ok = batch.cholesky_solve(a, b)
+    np.testing.assert_allclose(x, np.linalg.solve(a, b[..., None])[..., 0], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(det, np.linalg.det(a), rtol=1e-9)
+    assert ok.all()
+    a[0, 0], a[0, 1, 3, 3] = -np.eye(4), np.nan
+    x, det, ok = batch.cholesky_solve(a, b)
+    assert not ok[0, :2].any() and ok[0, 2:].all() and (x[0, :2] == 0).all() and (det[0, :2] == 0).all()
+
+
+def test_crlb_matches_the_notes_and_finite_differences():
+    """notes/paper003-000.md, 003 results table: CRLB position RMSE of target 2 at K = 600:
+    273 m (0.1 deg), 1364 m (0.5 deg), 5183 m (1.9 deg); det F at the truth 1.7e3, 4.4e-3,
+    1.0e-7 (SI).  The bound scales with sigma exactly."""
+    t = oh2021.times(600)
+    obs, x0 = oh2021.observer(t), np.array(oh2021.TARGETS[2])
+    phi = batch.polynomial_basis(t)
+    for sd, pos, det in ((0.1, 273, 1.7e3), (0.5, 1364, 4.4e-3), (1.9, 5183, 1.0e-7)):
+        bound = batch.crlb(phi, obs, x0, np.radians(sd))
+        assert np.sqrt(bound[0, 0] + bound[1, 1]) == pytest.approx(pos, abs=0.5)
+        assert 1 / np.linalg.det(bound) == pytest.approx(det, rel=0.05)
+    jac = _fd(lambda y: np.arctan2(*(phi @ y - obs).T[::-1]), x0, np.array([1e-2, 1e-2, 1e-4, 1e-4]))
+    np.testing.assert_allclose(batch.crlb(phi, obs, x0, 0.01), np.linalg.inv(jac.T @ jac / 1e-4), rtol=1e-5)
+
+
+def test_newton_converges_in_a_few_steps_on_noise_free_bearings():
+    """From 300 m and 1 m/s off the truth, no noise: the Gauss-Newton iterates reach the
+    truth (lam = 0) quadratically, in at most 6 steps, for every target."""
+    t = oh2021.times(600)
+    for target in (1, 2, 3):
+        prob = nrpso.problem(t, oh2021.bearings(target, t), oh2021.observer(t), np.radians(0.5))
+        x0 = np.array(oh2021.TARGETS[target])
+        res = batch.gauss_newton(prob.data, (x0 + [300, -300, 1, -1])[None])
+        assert res.converged[0] and not res.degenerate[0] and res.n_iter[0] <= 6
+        np.testing.assert_allclose(res.theta[0], x0, atol=1e-6)
+
+
+def test_singular_fisher_matrix_is_reported_not_nan():
+    """A still observer and a target moving straight away: every bearing is 0, the range
+    is unobservable and F is singular.  The run stops at its start, flagged degenerate."""
+    t = np.arange(20.0)
+    data = batch.prepare(batch.polynomial_basis(t), np.zeros((20, 2)), np.zeros(20), 0.01)
+    res = batch.gauss_newton(data, np.array([[1000.0, 0, 5, 0]]))
+    assert res.degenerate[0] and not res.converged[0] and res.n_iter[0] == 0
+    np.testing.assert_array_equal(res.theta[0], [1000.0, 0, 5, 0])
+
+
+def test_bearings_from_north_are_converted_at_the_edge():
+    """003 Eq. (3): theta = atan2(dx, dy), clockwise from north.  problem() turns them into
+    batch's h = pi/2 - theta once: at the truth every residual vanishes, and the data equal
+    those prepared from +x bearings atan2(dy, dx).  Fed as if they were from +x, the
+    bearings put the truth off by far more than the noise."""
+    t = oh2021.times(100)
+    obs, north = oh2021.observer(t), oh2021.bearings(1, t)
+    prob = nrpso.problem(t, north, obs, 0.01)
+    x0 = np.array(oh2021.TARGETS[1])
+    assert np.abs(batch.residuals(prob.data, x0[None, None])).max() < 1e-12
+    d = oh2021.truth(1, t)[:, :2] - obs
+    direct = batch.prepare(batch.polynomial_basis(t), obs, np.arctan2(d[:, 1], d[:, 0]), 0.01)
+    np.testing.assert_allclose(prob.data.design, direct.design, atol=1e-9)
+    wrong = batch.prepare(batch.polynomial_basis(t), obs, north, 0.01)
+    assert np.abs(batch.residuals(wrong, x0[None, None])).min() > 0.3
+    fit = nrpso.BatchTMA(np.radians(0.1), method="nr", rng=np.random.default_rng(0)).fit(t, north, obs)
+    np.testing.assert_allclose(fit.x_, x0, atol=1e-6)
+    assert fit.converged_ and fit.x_.shape == (4,) and fit.cov_.shape == (4, 4)
+
+
+def test_search_area_sampling_and_projection():
+    """Table 2: draws lie in the sector (range <= 15 km, bearing within 3 sigma) with speed
+    <= 15 m/s; projection leaves inside points exactly and maps outside ones onto the
+    boundary."""
+    win = nrpso.SearchArea().window([[100.0, -50.0]], [0.3], np.radians(1.0))
+    x = win.sample(np.random.default_rng(2).random((1, 5000, 4)))
+    assert win.contains(x).all()
+    np.testing.assert_array_equal(win.project(x), x)
+    far = np.array([[[100 + 30e3 * np.cos(1.0), -50 + 30e3 * np.sin(1.0), 40.0, 0.0]]])
+    p = win.project(far)
+    assert win.contains(p).all()
+    rel = p[0, 0, :2] - [100, -50]
+    assert np.hypot(*rel) == pytest.approx(15e3)
+    assert np.arctan2(rel[1], rel[0]) == pytest.approx(0.3 + 3 * np.radians(1))
+    np.testing.assert_allclose(p[0, 0, 2:], [15.0, 0.0])
+
+
+def _small_problem(target=2, sigma_deg=1.9, runs=4, scans=200, seed=SEED):
+    t = oh2021.times(scans)
+    gens = oh2021.streams(seed, runs)
+    sig = np.radians(sigma_deg)
+    z = oh2021.bearings(target, t) + sig * np.stack([g[0].standard_normal(scans) for g in gens])
+    return nrpso.problem(t, z, oh2021.observer(t), sig), gens
+
+
+@pytest.mark.parametrize("method", ["pso", "nrpso"])
+def test_particles_stay_inside_the_search_area(method, monkeypatch):
+    """003 Sec. 4: "PSO only considers the solution inside the search area".  Every
+    position the swarm evaluates (400 particles x 50 iterations) is in the area."""
+    prob, gens = _small_problem(sigma_deg=0.3)
+    seen = []
+    for name in ("nll", "derivatives"):
+        orig = getattr(batch.Evaluator, name)
+
+        def spy(self, theta, *a, _orig=orig, **k):
+            if theta.shape[1] > 1:
+                seen.append(np.array(theta))
+            return _orig(self, theta, *a, **k)
+
+        monkeypatch.setattr(batch.Evaluator, name, spy)
+    res = getattr(nrpso, method)(prob, [g[2] for g in gens])
+    assert len(seen) == 51 and all(prob.window.contains(x).all() for x in seen)
+    assert prob.window.contains(res.theta[:, None]).all()
+    if method == "nrpso":
+        assert (res.newton_share > 0).all()
+
+
+def test_screening_finds_the_same_best_candidate():
+    """The exact screen of best_candidate against evaluating all 10 000 candidates."""
+    for sigma_deg in (0.1, 1.9):
+        prob, _ = _small_problem(sigma_deg=sigma_deg, runs=3, scans=600)
+        data = prob.data.astype(np.float32)
+        a = nrpso.best_candidate(data, prob.window, np.random.default_rng(5), screen=1)
+        b = nrpso.best_candidate(data, prob.window, np.random.default_rng(5), screen=8)
+        np.testing.assert_array_equal(a[0], b[0])
+
+
+def test_run_r_does_not_depend_on_grouping_or_workers():
+    """Seeds: run r of a cell draws from SeedSequence(seed).spawn(runs)[r]; the runs'
+    grouping into blocks, the run count and the worker count leave its estimate alone."""
+    cell = oh2021.Cell(2, 1.9, 100)
+    a = oh2021.run_cell(cell, 6, SEED, run_block=4)
+    b = oh2021.run_cell(cell, 6, SEED, run_block=1)
+    for m in oh2021.METHODS:
+        for key in ("diverged_pct", "rmse_pos_m", "rmse_vel_mps"):
+            assert a["methods"][m][key] == b["methods"][m][key]
+    one = oh2021.study(3, SEED, targets=(3,), sigmas_deg=(1.9,), scans=(100,), methods=("nr", "pso"), workers=1)
+    two = oh2021.study(3, SEED, targets=(3,), sigmas_deg=(1.9,), scans=(100,), methods=("nr", "pso"), workers=2)
+    strip = [{m: {k: v for k, v in r.items() if k != "seconds_per_run"} for m, r in c["methods"].items()}
+             for c in (one["cells"] + two["cells"])]
+    assert strip[:2] == strip[2:]
+
+
+def test_estimator_is_deterministic_and_batched():
+    """Same settings and seed, same result; a batch of runs equals the runs one by one when
+    each has its own generator."""
+    t = oh2021.times(100)
+    obs = oh2021.observer(t)
+    rng = np.random.default_rng(SEED)
+    bearings = oh2021.bearings(2, t) + np.radians(1.9) * rng.standard_normal((3, 100))
+
+    def fit(z, rngs):
+        return nrpso.BatchTMA(np.radians(1.9), method="nrpso", n_particles=50, n_iter=10, rng=rngs).fit(t, z, obs)
+
+    fits = [fit(bearings, [np.random.default_rng(r) for r in range(3)]) for _ in range(2)]
+    np.testing.assert_array_equal(fits[0].x_, fits[1].x_)
+    one = fit(bearings[2], np.random.default_rng(2))
+    np.testing.assert_allclose(one.x_, fits[0].x_[2], rtol=1e-12)
+    assert fits[0].x_.shape == (3, 4) and fits[0].n_iter_.tolist() == [10, 10, 10] and one.cov_.shape == (4, 4)
+
+
+# The study.  Divergence of 003's NR is a binomial count: with N runs and rate p the
+# observed rate has std sqrt(p (1 - p) / N); bands are 3 std wide.
+
+
+def _nr(target, sigma_deg, runs, **kw):
+    prob, gens = _small_problem(target, sigma_deg, runs, 600)
+    res = nrpso.newton_raphson(prob, [g[1] for g in gens], **kw)
+    m = oh2021.metrics(res.theta, np.array(oh2021.TARGETS[target]), oh2021.observer([0.0])[0])
+    return m, res
+
+
+def test_nr_diverges_on_target_2_at_the_papers_rate():
+    """003 Sec. 4: target 2, sigma = 1.9 deg, K = 600: NR divergence "up to about 40%"
+    (notes' reference: 41.3% of 1000 runs).  1000 runs: std 1.5%, band 40 +- 4.6%.
+    Measured (seed 2021): 41.2%, position RMSE of the rest 3709 m (notes: 3760 m)."""
+    m, _ = _nr(2, 1.9, 1000)
+    assert abs(m["diverged_pct"] - 40.0) <= 3 * 100 * np.sqrt(0.4 * 0.6 / 1000), m
+
+
+def test_nr_never_diverges_at_small_noise_and_reaches_the_crlb():
+    """003 Sec. 4: "accurate estimates with small standard deviations without divergence".
+    Target 1, 0.1 deg, 300 runs: none diverge, and the position RMSE is the CRLB (111 m)
+    within 3 std of a 2-D Gaussian's RMSE over 300 runs (sqrt(1 / (2 N)) = 4%).
+    Measured: 0 of 300, 108 m (notes: 112 m over 1000 runs)."""
+    m, res = _nr(1, 0.1, 300)
+    assert m["diverged_pct"] == 0.0 and res.converged.all()
+    bound = batch.crlb(batch.polynomial_basis(oh2021.times(600)), oh2021.observer(oh2021.times(600)),
+                       np.array(oh2021.TARGETS[1]), np.radians(0.1))
+    assert m["rmse_pos_m"] == pytest.approx(np.sqrt(bound[0, 0] + bound[1, 1]), rel=3 * np.sqrt(1 / 600))
+
+
+def test_full_hessian_newton_diverges_where_gauss_newton_does_not():
+    """Which matrix is 003's dM/dX: target 2 at 0.1 deg, the notes' reference measured
+    divergence 1% with the Fisher (Gauss-Newton) matrix and 79% with the full Hessian from
+    the same 10 000-candidate start.  The paper reports no divergence at small noise, so it
+    used the former.  100 runs: GN at most 5%, the full Hessian at least 50%.
+    Measured: 0% and 75%."""
+    gn, _ = _nr(2, 0.1, 100)
+    full, _ = _nr(2, 0.1, 100, hessian=True)
+    assert gn["diverged_pct"] <= 5 and full["diverged_pct"] >= 50, (gn, full)
+
+
+def test_swarms_never_diverge_and_nrpso_beats_pso_at_small_noise():
+    """003 Sec. 4: PSO and NRPSO never diverge (the 15 km search area keeps them inside
+    20 km).  Target 3 at 0.1 deg, where the NR term is on for every particle, NRPSO's
+    RMSE is a fraction of PSO's (notes: 222 m vs 1518 m over 500 runs); 30 runs,
+    paired, must show NRPSO below half of PSO.  Measured: 1431 m and 199 m."""
+    prob, gens = _small_problem(3, 0.1, 30, 600)
+    x0 = np.array(oh2021.TARGETS[3])
+    p = oh2021.metrics(nrpso.pso(prob, [g[2] for g in gens]).theta, x0, np.zeros(2))
+    res = nrpso.nrpso(prob, [g[3] for g in gens])
+    n = oh2021.metrics(res.theta, x0, np.zeros(2))
+    assert p["diverged_pct"] == n["diverged_pct"] == 0.0
+    assert n["rmse_pos_m"] < 0.5 * p["rmse_pos_m"] and res.newton_share.min() > 0.99, (p, n)
+
+
+def test_tma_reproduce_oh2021_command(tmp_path, capsys):
+    from uavsim.cli import main
+
+    args = ["tma", "reproduce", "oh2021", "--runs", "2", "--targets", "2", "--sigmas", "1.9", "--scans", "100,600",
+            "--workers", "1", "--out", str(tmp_path)]
+    assert main(args) == 0
+    result = json.loads((tmp_path / "result.json").read_text())
+    assert [(c["sigma_deg"], c["scans"]) for c in result["cells"]] == [(0.5, 100), (0.5, 600), (1.9, 600)]
+    assert set(result["cells"][0]["methods"]) == {"nr", "pso", "nrpso"}
+    assert (tmp_path / "fig4_sigma.png").stat().st_size > 10_000 and (tmp_path / "fig5_scans.png").exists()
+    assert "nrpso" in capsys.readouterr().out
+    for bad in (["--targets", "4"], ["--sigmas", "0"], ["--scans", "3"], ["--methods", "ga"], ["--workers", "0"]):
+        assert main(["tma", "reproduce", "oh2021", "--runs", "2", "--out", str(tmp_path), *bad]) == 2
+    assert main(["tma", "reproduce", "huang2021-scenario2", "--sigmas", "1", "--out", str(tmp_path)]) == 2
+    fig6 = ["--runs", "2", "--targets", "1", "--sigmas", "0.1,1.9", "--scans", "600", "--methods", "pso,pso1500"]
+    assert main(["tma", "reproduce", "oh2021", "--out", str(tmp_path / "fig6"), "--workers", "1", *fig6]) == 0
+    assert set(json.loads((tmp_path / "fig6" / "result.json").read_text())["cells"][0]["methods"]) == {"pso", "pso1500"}
+    assert "applies to oh2021 only" in capsys.readouterr().err
+
+
+def test_estimator_modules_import_numpy_and_scipy_only():
+    """Non-negotiable 5: the estimator library never imports the simulator."""
+    allowed = {"numpy", "scipy", "__future__", "dataclasses", "time", "os", "concurrent"}
+    for path in (Path(batch.__file__).parent).glob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0:
+                names = [node.module]
+            else:
+                continue
+            assert {n.split(".")[0] for n in names} <= allowed, (path.name, names)
