@@ -1,0 +1,147 @@
+"""Speed of 003's batch TMA (NR, PSO, NRPSO) and the wall time of the study's full grid.
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/batch_tma.py [--runs 40] [--dtype float32]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/batch_tma.py --grid [--workers 2] [--out runs/oh2021]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/batch_tma.py --compare-dtypes [--runs 200]
+
+Default: the kernel's cost per particle-scan (float32 / float64, cache-sized blocks or
+one pass), the CPU seconds per run of each method at every K (target 2, 0.5 deg; and
+0.1 / 1.9 deg at K = 600), and the grid's wall time extrapolated from them (Figs. 4-5:
+3 targets x 10 sigmas at K = 600 plus K = 100..500 at 0.5 deg, 1000 runs, 3 methods,
+over ``--workers`` processes).  ``--grid`` runs that grid once (``uavsim tma reproduce
+oh2021``) and prints its wall time and the 1000-run NR divergence of target 2 at 1.9 deg
+beside 40%.  ``--compare-dtypes`` runs the same runs in float32 and float64 and prints
+the statistics of both (the float32 swarm must not change them).  The reference
+implementation of the notes: NR 0.12 s, PSO 0.24 s, NRPSO 0.66 s per run on one core,
+about 13 h for the grid.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import time
+
+import numpy as np
+
+from uavsim.estimators import batch, nrpso, oh2021
+
+NOTES_SECONDS = {"nr": 0.12, "pso": 0.24, "nrpso": 0.66}
+
+
+def kernel(dtype, block, reps=5) -> tuple[float, float]:
+    """ns per particle-scan of lam alone and of lam + gradient + Fisher matrix."""
+    t = oh2021.times(600)
+    prob, _ = problem(2, 0.5, 8, 600)
+    ev = batch.Evaluator(prob.data.astype(dtype), block)
+    theta = prob.window.sample(np.random.default_rng(0).random((8, 400, 4)))
+    out = []
+    for fn in (ev.nll, ev.derivatives):
+        fn(theta)
+        best = min(_cpu(fn, theta) for _ in range(reps))
+        out.append(best / theta.shape[0] / theta.shape[1] / len(t) * 1e9)
+    return tuple(out)
+
+
+def _cpu(fn, *args, **kwargs) -> float:
+    t0 = time.process_time()
+    fn(*args, **kwargs)
+    return time.process_time() - t0
+
+
+def problem(target, sigma_deg, runs, scans, seed=2021):
+    t = oh2021.times(scans)
+    gens = oh2021.streams(seed, runs)
+    sig = np.radians(sigma_deg)
+    z = oh2021.bearings(target, t) + sig * np.stack([g[0].standard_normal(scans) for g in gens])
+    return nrpso.problem(t, z, oh2021.observer(t), sig), gens
+
+
+def per_run(target, sigma_deg, scans, runs, dtype) -> dict:
+    """CPU seconds per run of each method (blocks of 25 runs, as the study runs them)."""
+    prob, gens = problem(target, sigma_deg, runs, scans)
+    secs = {}
+    for i, m in enumerate(oh2021.METHODS):
+        fn = {"nr": nrpso.newton_raphson, "pso": nrpso.pso, "nrpso": nrpso.nrpso}[m]
+        secs[m] = _cpu(fn, prob, [g[1 + i] for g in gens], dtype=dtype) / runs
+    return secs
+
+
+def estimate(args) -> None:
+    print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores (timings are CPU seconds)")
+    print("kernel, ns per particle-scan     lam   lam+grad+F")
+    for dtype in (np.float32, np.float64):
+        for block in (2**16, 2**30):
+            a, b = kernel(dtype, block)
+            label = "cache-sized blocks" if block == 2**16 else "one pass"
+            print(f"  {np.dtype(dtype).name:8s} {label:20s}{a:6.2f}{b:10.2f}")
+    dtype = np.dtype(args.dtype)
+    print(f"\nCPU seconds per run ({args.runs} runs, {dtype.name} swarm)   nr     pso    nrpso   total")
+    by_k = {}
+    for k in oh2021.SCANS:
+        by_k[k] = per_run(2, oh2021.SWEEP_SIGMA_DEG, k, args.runs, dtype)
+        print(f"  target 2, 0.5 deg, K = {k:3d}          " + "".join(f"{s:7.4f}" for s in by_k[k].values())
+              + f"{sum(by_k[k].values()):8.4f}")
+    for sd in (0.1, 1.9):
+        s = per_run(2, sd, 600, args.runs, dtype)
+        print(f"  target 2, {sd} deg, K = 600          " + "".join(f"{v:7.4f}" for v in s.values())
+              + f"{sum(s.values()):8.4f}")
+    print("  notes' reference (one core, K = 600)  " + "".join(f"{v:7.3f}" for v in NOTES_SECONDS.values())
+          + f"{sum(NOTES_SECONDS.values()):8.3f}")
+    grid = oh2021.cells()
+    cpu = sum(1000 * sum(by_k[c.scans].values()) for c in grid)
+    print(f"\ngrid: {len(grid)} cells x 1000 runs: {cpu / 60:.1f} CPU min; over {args.workers} workers about "
+          f"{cpu / args.workers / 60:.1f} min wall (the notes' straightforward loop: about 13 h on one core)")
+
+
+def compare_dtypes(args) -> None:
+    """Same runs, float32 and float64 swarms: divergence, RMSE and NR share."""
+    print(f"{'cell':18s}{'method':8s}{'dtype':9s}{'div%':>6s}{'pos RMSE':>10s}{'vel RMSE':>10s}{'NR share':>10s}")
+    for target, sd in ((2, 0.1), (2, 0.5), (3, 0.9), (2, 1.9)):
+        for dtype in ("float32", "float64"):
+            settings = {m: {"dtype": np.dtype(dtype)} for m in oh2021.METHODS}
+            r = oh2021.run_cell(oh2021.Cell(target, sd, 600), args.runs, 2021, settings=settings)
+            for m, row in r["methods"].items():
+                print(f"T{target} {sd:3.1f} deg K=600  {m:8s}{dtype:9s}{row['diverged_pct']:6.1f}"
+                      f"{row['rmse_pos_m']:10.1f}{row['rmse_vel_mps']:10.3f}{row.get('newton_share', 0):10.3f}")
+
+
+def full_grid(args) -> None:
+    from uavsim.cli import main
+
+    t0 = time.perf_counter()
+    load0 = os.getloadavg()[0]
+    main(["tma", "reproduce", "oh2021", "--runs", "1000", "--workers", str(args.workers), "--out", args.out])
+    wall = time.perf_counter() - t0
+    import json
+    from pathlib import Path
+
+    result = json.loads((Path(args.out) / "result.json").read_text())
+    cell = next(c for c in result["cells"] if c["target"] == 2 and c["sigma_deg"] == 1.9 and c["scans"] == 600)
+    div = cell["methods"]["nr"]["diverged_pct"]
+    band = 3 * 100 * np.sqrt(0.4 * 0.6 / 1000)
+    print(f"\ngrid wall time {wall / 60:.1f} min with {args.workers} workers (load average before {load0:.2f}, "
+          f"after {os.getloadavg()[0]:.2f}); CPU {result['cpu_seconds'] / 60:.1f} min")
+    print(f"NR divergence, target 2, 1.9 deg, K = 600, 1000 runs: {div:.1f}% (paper: about 40%, band "
+          f"{40 - band:.1f}..{40 + band:.1f}; notes' reference 41.3%)")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=40, help="runs per timing sample (default 40)")
+    ap.add_argument("--dtype", default="float32", choices=("float32", "float64"), help="the swarms' dtype")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--grid", action="store_true", help="run the full grid once")
+    ap.add_argument("--compare-dtypes", action="store_true")
+    ap.add_argument("--out", default="runs/oh2021")
+    args = ap.parse_args()
+    if args.grid:
+        full_grid(args)
+    elif args.compare_dtypes:
+        compare_dtypes(args)
+    else:
+        estimate(args)
+
+
+if __name__ == "__main__":
+    main()
