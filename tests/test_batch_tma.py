@@ -357,7 +357,7 @@ def test_tma_reproduce_oh2021_command(tmp_path, capsys):
 
 def test_estimator_modules_import_numpy_and_scipy_only():
     """Non-negotiable 5: the estimator library never imports the simulator."""
-    allowed = {"numpy", "scipy", "__future__", "dataclasses", "time", "os", "concurrent"}
+    allowed = {"numpy", "scipy", "__future__", "dataclasses", "time", "os", "concurrent", "typing"}
     for path in (Path(batch.__file__).parent).glob("*.py"):
         for node in ast.walk(ast.parse(path.read_text())):
             if isinstance(node, ast.Import):
