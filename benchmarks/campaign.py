@@ -17,7 +17,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from uavsim.campaign import run_campaign, with_overrides
+from uavsim.campaign import run_campaign
 from uavsim.config import load_mission
 
 
@@ -38,7 +38,7 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=16)
     ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args()
-    m = with_overrides(load_mission(args.mission), trials=args.trials)
+    m = load_mission(args.mission, {"trials": args.trials})
     print(f"{m.path}: {args.trials} trials x {m.steps} steps, planner {m.planner.name}")
 
     t1, s1 = timed(m, workers=1)

@@ -13,12 +13,12 @@ import time
 
 import numpy as np
 
-from uavsim.campaign import run_trial, trial_seeds, with_overrides
+from uavsim.belief.traces import decide
+from uavsim.campaign import run_trial, trial_seeds
 from uavsim.config import load_mission
 from uavsim.guidance import Guidance
-from uavsim.planning import decide, pseudo_traces
 from uavsim.sim import STAGES, Simulation
-from uavsim.uav import admissible, candidates
+from uavsim.uav import candidates
 
 
 def decision_seconds(mission, repeats=200) -> np.ndarray:
@@ -27,12 +27,11 @@ def decision_seconds(mission, repeats=200) -> np.ndarray:
     sim.reset(trial_seeds(mission.seed, 1)[0])
     for _ in range(5):
         sim.step()
-    cands = candidates(sim.uav, mission.uav)
-    ok = admissible(sim.uav, cands, mission.world, mission.uav)
+    cands, ok = sim.policy.moves()
     out = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        decide(cands, ok, lambda c: pseudo_traces(c, sim.est.particles, sim.est.weights, mission.sensor.sigma))
+        decide(cands, ok, lambda c: sim.belief.traces(c, mission.sensor.sigma))
         out.append(time.perf_counter() - t0)
     return np.array(out)
 
@@ -43,7 +42,7 @@ def main() -> None:
     ap.add_argument("--planner", default="optimized")
     ap.add_argument("--trials", type=int, default=3)
     args = ap.parse_args()
-    mission = with_overrides(load_mission(args.mission), trials=args.trials)
+    mission = load_mission(args.mission, {"trials": args.trials})
     m, n = len(mission.targets), mission.filter.particles
 
     d = decision_seconds(mission)

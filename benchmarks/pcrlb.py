@@ -24,7 +24,7 @@ from dataclasses import replace
 import numpy as np
 
 from uavsim import metrics
-from uavsim.campaign import run_trial, trial_seeds, with_overrides
+from uavsim.campaign import run_trial, trial_seeds
 from uavsim.config import load_mission
 from uavsim.guidance import Guidance
 from uavsim.pcrlb import _q2_quadrature, information_reduction_factor, pcrlb_for_trials
@@ -68,7 +68,7 @@ def main() -> None:
     ap.add_argument("--truth", choices=("planned", "stochastic"), default=None)
     ap.add_argument("--every", type=int, default=5, help="print every k-th step")
     args = ap.parse_args()
-    mission = with_overrides(load_mission(args.mission), trials=args.trials)
+    mission = load_mission(args.mission, {"trials": args.trials})
     if args.truth:
         mission = replace(mission, truth=args.truth)
     fixed = args.planner == "fixed-sensors"

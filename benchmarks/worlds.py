@@ -134,7 +134,7 @@ def run_world(seed: int, folder: str, trials: int, steps: int) -> dict:
                 sim = Simulation(m, "optimized", guidance, oracle=oracle)
                 sim.reset(seed_k)
                 if not oracle:
-                    out["collisions"] += sum(collisions(m.world, plan) for plan in sim.truth_path)
+                    out["collisions"] += sum(collisions(m.world, plan) for plan in sim.truth.plans)
                 e = []
                 for _ in range(m.steps):
                     info = sim.step()

@@ -8,7 +8,6 @@ import signal
 import subprocess
 import sys
 import time
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -23,8 +22,7 @@ from .test_sim import write_small_mission
 
 
 def small(trials=3, steps=3):
-    m = load_mission(PAPER)
-    return replace(m, trials=trials, steps=steps, filter=replace(m.filter, particles=300))
+    return load_mission(PAPER, {"trials": trials, "steps": steps, "filter.particles": 300})
 
 
 def results(summary):

@@ -5,7 +5,6 @@ import json
 import os
 import subprocess
 import sys
-from dataclasses import replace
 
 import pytest
 
@@ -104,7 +103,7 @@ def test_unwritable_out(capsys, tmp_path):
 
 def manifest(out):
     """The manifest ``run M --steps 1`` writes, so that --resume accepts the folder."""
-    m = replace(load_mission(PAPER), steps=1)
+    m = load_mission(PAPER, {"steps": 1})
     (out / "trials").mkdir(parents=True)
     (out / "campaign.json").write_text(json.dumps({"mission": M, "planner": "optimized", "steps": 1, "seed": m.seed,
                                                    "fingerprint": fingerprint(m, "optimized"), "format": FORMAT}))
@@ -149,7 +148,7 @@ def test_io_failure_while_writing_is_one_line(capsys, tmp_path, monkeypatch):
     def full(path, data):
         raise OSError(28, "No space left on device", str(path))
 
-    monkeypatch.setattr(uavsim.cli, "_write_json", full)
+    monkeypatch.setattr(uavsim.cli, "write_json", full)
     assert main(["tma", "reproduce", "huang2021-scenario1", "--runs", "2", "--out", str(tmp_path)]) == 2
     assert one_error(capsys, f"{tmp_path / 'result.json'}: No space left on device")
 

@@ -2,17 +2,15 @@
 NEES consistency (uavsim.metrics, campaign.with_baseline)."""
 
 import json
-from dataclasses import replace
 
 import numpy as np
 from scipy import stats
 
 from uavsim import metrics
+from uavsim.belief.particle import ParticleFilter
 from uavsim.campaign import run_campaign, run_trial, trial_seeds, with_baseline
 from uavsim.cli import main
 from uavsim.config import load_mission
-from uavsim.filtering import ParticleFilter
-from uavsim.sensing import Sensor
 from uavsim.sim import Simulation
 from uavsim.targets import Dynamics
 
@@ -20,9 +18,8 @@ from .conftest import PAPER
 from .test_sim import write_small_mission
 
 
-def small(steps=4, trials=2, particles=400, **kw):
-    m = load_mission(PAPER)
-    return replace(m, steps=steps, trials=trials, filter=replace(m.filter, particles=particles), **kw)
+def small(steps=4, trials=2, particles=400, **overrides):
+    return load_mission(PAPER, {"steps": steps, "trials": trials, "filter.particles": particles, **overrides})
 
 
 # --------------------------------------------------------------------------- metrics by hand
@@ -91,11 +88,11 @@ def test_planned_truth_follows_the_plan_from_the_drawn_start():
     seed = trial_seeds(3, 1)[0]
     planned = Simulation(m, "optimized")
     x0 = planned.reset(seed).truth
-    stochastic = Simulation(replace(m, truth="stochastic"), "optimized")
+    stochastic = Simulation(small(particles=10, truth="stochastic"), "optimized")
     np.testing.assert_array_equal(stochastic.reset(seed).truth, x0)
     assert np.abs(x0[:, :2] - np.array([t.mean0[:2] for t in m.targets])).max() > 1.0
-    plan = planned.guidance.plan(x0[0], np.zeros((6, 6)), planned.goals[0])
-    np.testing.assert_allclose(planned.truth_path[0].means, plan.means, atol=1e-9)
+    plan = planned.guidance.plan(x0[0], np.zeros((6, 6)), m.goals[0])
+    np.testing.assert_allclose(planned.truth.plans[0].means, plan.means, atol=1e-9)
 
 
 # --------------------------------------------------------------------------- the baseline
@@ -104,7 +101,7 @@ def test_a_sensor_that_never_detects_is_the_baseline():
     the filter then equals the no-sensor baseline (to round-off in the weights)."""
     m = small(steps=5)
     seed = trial_seeds(m.seed, 1)[0]
-    blind = replace(m, sensor=Sensor(m.sensor.sigma, 0.0, 1.0))
+    blind = small(steps=5, **{"sensor.p_detect": 0.0, "sensor.clutter_rate": 1.0})
     a = run_trial(blind, "optimized", 0, seed)
     b = run_trial(m, "baseline", 0, seed)
     np.testing.assert_allclose(a.err2, b.err2, rtol=1e-9)
@@ -120,8 +117,8 @@ def test_a_precise_sensor_beats_the_baseline_by_far():
     its first bearings leave the range open (measured ratio over 15 steps: 0.46 at 1 deg,
     0.59 at 0.1 deg with 400 particles, which a sharp likelihood impoverishes)."""
     m = small(steps=10)
-    fixed = replace(m.planner.fixed_sensors, sensor=Sensor(np.radians(0.1), 1.0, 0.0))
-    sharp = replace(m, planner=replace(m.planner, fixed_sensors=fixed))
+    sharp = small(steps=10, **{"sensor.sigma_deg": 0.1, "planner.fixed_sensors.p_detect": 1.0,
+                               "planner.fixed_sensors.clutter_rate": 0.0})
     opt, base = run_campaign(sharp, "fixed-sensors"), run_campaign(m, "baseline")
     ratio = opt["time_avg_rmse"] / base["time_avg_rmse"]
     assert ratio < 0.1, ratio
@@ -133,8 +130,9 @@ def test_baseline_does_not_depend_on_sensor_or_planner_settings(tmp_path, capsys
     from uavsim.campaign import fingerprint
 
     m = small()
-    assert fingerprint(m, "baseline") == fingerprint(replace(m, sensor=Sensor(0.1, 0.5, 8.0)), "baseline")
-    assert fingerprint(m, "optimized") != fingerprint(replace(m, sensor=Sensor(0.1, 0.5, 8.0)), "optimized")
+    other = small(**{"sensor.sigma_deg": 5.0, "sensor.p_detect": 0.5, "sensor.clutter_rate": 8.0})
+    assert fingerprint(m, "baseline") == fingerprint(other, "baseline")
+    assert fingerprint(m, "optimized") != fingerprint(other, "optimized")
     mission = write_small_mission(tmp_path)
     out = tmp_path / "cmp"
     assert main(["compare", str(mission), "--planners", "optimized,circle", "--trials", "2", "--steps", "2",

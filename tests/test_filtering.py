@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from uavsim.filtering import ParticleFilter, log_likelihood, systematic_indices, weighted_moments
+from uavsim.belief.particle import ParticleFilter, log_likelihood, systematic_indices, weighted_moments
 from uavsim.sensing import Sensor, wrap_angle
 from uavsim.targets import Dynamics
 

@@ -36,7 +36,6 @@ rarely fall near the target's bearing.
 """
 
 import os
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -51,8 +50,8 @@ WORKERS = os.cpu_count() or 1
 
 
 def campaign(mission_file, planner, trials, tmp):
-    m = load_mission(MISSIONS / mission_file)
-    return run_campaign(replace(m, trials=trials), planner, out=tmp / f"{mission_file}-{planner}", workers=WORKERS)
+    m = load_mission(MISSIONS / mission_file, {"trials": trials})
+    return run_campaign(m, planner, out=tmp / f"{mission_file}-{planner}", workers=WORKERS)
 
 
 @pytest.fixture(scope="module")

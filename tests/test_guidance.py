@@ -105,7 +105,7 @@ def test_highs_matches_scip_on_short_horizons():
     objective must lie within its certified gap of SCIP's, up to SCIP's tolerance."""
     cfg = short(20)
     highs = Guidance(MISSION.world, MISSION.dynamics, cfg)
-    scip = Guidance(MISSION.world, MISSION.dynamics, cfg, solver="scip")
+    scip = Guidance(MISSION.world, MISSION.dynamics, dataclasses.replace(cfg, time_limit=300.0), solver="scip")
     starts = [t.mean0 for t in MISSION.targets] + random_starts(6, seed=3)
     cov = MISSION.targets[0].cov0
     for mean in starts:

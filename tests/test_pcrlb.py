@@ -2,7 +2,7 @@
 
 The IRF is checked three independent ways: its exact limits, a Monte Carlo of the score
 through the simulator's own sensor (``sensing.observe``) and set likelihood
-(``filtering.log_likelihood``, Eq. 10), and the first-order clutter term by 2-D adaptive
+(``belief.particle.log_likelihood``, Eq. 10), and the first-order clutter term by 2-D adaptive
 quadrature.  The recursion is checked against the inverse of the batch Fisher information
 of a whole 3-step track and against closed forms.  Statistical tolerances are 4 standard
 errors of the estimator for the sample size used (a correct IRF fails with probability
@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from uavsim.filtering import log_likelihood
+from uavsim.belief.particle import log_likelihood
 from uavsim.pcrlb import (
     _q2_quadrature,
     bearing_gradients,
@@ -209,4 +209,4 @@ def test_module_stays_below_the_loop():
     """campaign and sim will import the bound; it must not import them (nor config)."""
     code = "import sys, uavsim.pcrlb; print(sorted(m for m in sys.modules if m.startswith('uavsim')))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert not {"uavsim.sim", "uavsim.campaign", "uavsim.config", "uavsim.filtering"} & set(ast.literal_eval(out))
+    assert not {"uavsim.sim", "uavsim.campaign", "uavsim.config", "uavsim.belief"} & set(ast.literal_eval(out))

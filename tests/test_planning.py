@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from uavsim.planning import decide, pseudo_traces
+from uavsim.belief.traces import decide, pseudo_traces
 from uavsim.sensing import bearing, wrap_angle
 from uavsim.uav import move_offsets
 
@@ -75,7 +75,7 @@ def test_moving_across_the_line_of_sight_beats_moving_along_it():
 def test_gaussian_traces_by_hand():
     """P = a I, candidate r = 200 m away: |h| = 1 / r, so the trace drops by
     a^2 / r^2 / (a / r^2 + sigma^2) (Eq. 12-13 linearised; pseudo-linear filters)."""
-    from uavsim.planning import gaussian_traces
+    from uavsim.belief.traces import gaussian_traces
 
     a, r, sigma = 25.0, 200.0, 0.02
     means = np.array([[300.0, 400.0, 0, 1, 2, 0]])

@@ -2,7 +2,6 @@
 
 import io
 from collections import Counter
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -19,8 +18,7 @@ STEPS = 4
 
 @pytest.fixture(scope="module")
 def mission():
-    m = load_mission(PAPER)
-    return replace(m, steps=STEPS, trials=1, filter=replace(m.filter, particles=500))
+    return load_mission(PAPER, {"steps": STEPS, "trials": 1, "filter.particles": 500})
 
 
 @pytest.fixture(scope="module")
@@ -133,7 +131,7 @@ def test_recording_from_a_worker_process(mission, tmp_path):
     from concurrent.futures import ProcessPoolExecutor
     from multiprocessing import get_context
 
-    m = replace(mission, steps=2)
+    m = load_mission(mission.path, {"steps": 2, "trials": 1, "filter.particles": 500})
     with ProcessPoolExecutor(1, mp_context=get_context("spawn")) as pool:
         path = pool.submit(_record_in_worker, tmp_path / "w.rrd", m).result()
     _, rows, static = rows_per_entity(path)

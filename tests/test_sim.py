@@ -1,7 +1,6 @@
 """Closed loop (004 Sec. V-VI): determinism, seeding, manoeuvres, the commands."""
 
 import json
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -16,9 +15,8 @@ from .conftest import PAPER, ROOT
 CONSTRAINED = ROOT / "missions" / "paper_constrained.toml"
 
 
-def small(path=PAPER, steps=4, trials=2, particles=400, **kw):
-    m = load_mission(path)
-    return replace(m, steps=steps, trials=trials, filter=replace(m.filter, particles=particles), **kw)
+def small(path=PAPER, steps=4, trials=2, particles=400, **overrides):
+    return load_mission(path, {"steps": steps, "trials": trials, "filter.particles": particles, **overrides})
 
 
 def strip(summary):
@@ -28,7 +26,7 @@ def strip(summary):
 def test_same_seed_same_summary():
     m = small()
     assert strip(run_campaign(m, "optimized")) == strip(run_campaign(m, "optimized"))
-    other = strip(run_campaign(replace(m, seed=m.seed + 1), "optimized"))
+    other = strip(run_campaign(small(seed=m.seed + 1), "optimized"))
     assert other["rmse"] != strip(run_campaign(m, "optimized"))["rmse"]
 
 
@@ -140,7 +138,7 @@ def test_compare_writes_json_and_png(tmp_path):
 
 @pytest.mark.parametrize("argv, fragment", [
     (["compare", "M", "--planners", "optimized,spiral", "--out", "x"], "unknown spiral"),
-    (["run", "M", "--trials", "0"], "--trials must be at least 1"),
+    (["run", "M", "--trials", "0"], "trials: must be >= 1, got 0 (an override, not the file's value)"),
     (["run", "M", "--clutter-rate", "-1"], "sensor.clutter_rate: must be >= 0, got -1.0"),
 ])
 def test_bad_command_lines_exit_2(tmp_path, capsys, argv, fragment):
@@ -159,7 +157,7 @@ def test_failed_first_replan_coasts_and_is_logged():
 
     sim = Simulation(m, "optimized")
     sim.reset(1)
-    sim.est.particles[0, :, 2] = 5.0
+    sim.belief.pf.particles[0, :, 2] = 5.0
     info = sim.step()
     assert info.plans[0].status == "fallback" and np.all(info.plans[0].controls == 0)
     assert any("T1 (estimate): no plan" in e and "coasting" in e for e in info.events)
@@ -174,7 +172,7 @@ def test_a_belief_inside_an_obstacle_plans_its_way_out():
 
     sim = Simulation(m, "optimized")
     sim.reset(1)
-    sim.est.particles[0, :, :2] = [375.0, 520.0]  # target 0's whole belief inside obstacle A
+    sim.belief.pf.particles[0, :, :2] = [375.0, 520.0]  # target 0's whole belief inside obstacle A
     info = sim.step()
     assert info.plans[0].ok and info.plans[0].status in ("optimal", "feasible")
     assert "start inside the margin of 'A'" in info.plans[0].message
@@ -207,8 +205,7 @@ CLUTTER_FREE = ROOT / "missions" / "paper_clutterfree.toml"
 def test_pseudo_linear_filters_in_the_closed_loop(kind):
     """002's filters in place of particles (clutter-free): finite beliefs, symmetric
     positive semi-definite covariances, no particles in the step record."""
-    m = load_mission(CLUTTER_FREE, {"filter.kind": kind})
-    m = replace(m, steps=3)
+    m = load_mission(CLUTTER_FREE, {"filter.kind": kind, "steps": 3})
     from uavsim.sim import Simulation
 
     sim = Simulation(m, "optimized")
@@ -224,7 +221,8 @@ def test_pseudo_linear_filters_in_the_closed_loop(kind):
 def test_iv_plkf_tracks_the_clutter_free_paper_mission():
     """Measured with 2 trials x 30 steps (mission file): IV-PLKF 11.0 m against the
     particle filter's 9.2 m.  Bound: within twice the particle filter's RMSE."""
-    m = replace(load_mission(CLUTTER_FREE), steps=30, trials=2)
+    m = load_mission(CLUTTER_FREE, {"steps": 30, "trials": 2})
     iv = run_campaign(m, "optimized")
-    pf = run_campaign(replace(m, filter=replace(m.filter, kind="particle")), "optimized")
+    pf = run_campaign(load_mission(CLUTTER_FREE, {"steps": 30, "trials": 2, "filter.kind": "particle",
+                                                    "filter.particles": 5000}), "optimized")
     assert iv["time_avg_rmse"] < 2 * pf["time_avg_rmse"]

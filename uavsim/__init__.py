@@ -1,8 +1,10 @@
 """uavsim: passive bearings-only monitoring of ground targets from one UAV.
 
-Pipeline (one module per stage, in data-flow order): world -> targets/guidance ->
-sensing -> filtering -> planning -> recording -> campaign -> cli.  ``config`` is the
-only module that reads files.
+Pipeline, in data-flow order: ``world`` -> ``targets`` (dynamics), ``guidance/`` (P1)
+and ``truth`` -> ``sensing`` -> ``belief/`` (per-target filters) -> ``uav/`` (policies)
+-> ``sim`` (one trial) -> ``recording``, ``metrics``, ``campaign`` -> ``cli``, ``env``.
+``config`` is the only module that reads files; ``estimators/`` is the paper library,
+independent of the simulator.
 """
 
 __version__ = "0.1.0"

@@ -26,7 +26,6 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-import os
 import time
 import zipfile
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
@@ -38,9 +37,11 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from . import metrics
-from .config import Mission
+from .files import write_atomic
 from .guidance import Guidance
+from .mission import Mission
 from .sim import STAGES, Simulation
+from .uav import BASELINE, make_policy
 
 FORMAT = 2  # trial-file layout; a folder written in another layout is not resumed
 
@@ -63,12 +64,6 @@ class TrialResult:
     seconds: np.ndarray
     statuses: dict[str, int]
     events: tuple[str, ...]
-
-
-def with_overrides(mission: Mission, steps=None, trials=None, seed=None) -> Mission:
-    """The mission with the campaign's command-line settings (None keeps the file's)."""
-    return replace(mission, steps=steps or mission.steps, trials=trials or mission.trials,
-                   seed=mission.seed if seed is None else seed)
 
 
 def trial_seeds(seed: int, trials: int) -> list[np.random.SeedSequence]:
@@ -119,7 +114,7 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
     which does not change trial k, nor where the file lives).  The baseline's trials do
     not depend on the sensor, the UAV or the planner settings, which it leaves out."""
     mission = replace(mission, trials=0, path=Path("."), world_path=Path("."))
-    if planner == "baseline":
+    if planner == BASELINE:
         mission = replace(mission, sensor=None, uav=None, planner=None, description="")
     data = asdict(mission)
 
@@ -129,25 +124,11 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
     return hashlib.sha256(json.dumps(data, default=plain, sort_keys=True).encode()).hexdigest()
 
 
-def _atomic_write(path: Path, data: bytes) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as fh:
-        fh.write(data)
-        fh.flush()
-        os.fsync(fh.fileno())
-    os.replace(tmp, path)
-    fd = os.open(path.parent, os.O_RDONLY)
-    try:
-        os.fsync(fd)  # the rename itself survives a crash
-    finally:
-        os.close(fd)
-
-
 def save_trial(folder: Path, r: TrialResult) -> None:
     buf = io.BytesIO()
     np.savez(buf, index=r.index, err2=r.err2, trace=r.trace, nees_pos=r.nees_pos, nees_state=r.nees_state,
              seconds=r.seconds, meta=np.array(json.dumps({"statuses": r.statuses, "events": list(r.events)})))
-    _atomic_write(folder / f"trial-{r.index:05d}.npz", buf.getvalue())
+    write_atomic(folder / f"trial-{r.index:05d}.npz", buf.getvalue())
 
 
 def load_trials(folder: Path, indices: range) -> dict[int, TrialResult]:
@@ -213,7 +194,7 @@ def _prepare(out: Path, mission: Mission, planner: str, resume: bool) -> Path:
     trials.mkdir(parents=True, exist_ok=True)
     for stale in trials.glob(".trial-*.tmp"):  # a writer killed before its rename
         stale.unlink()
-    _atomic_write(path, json.dumps(manifest, indent=1).encode())
+    write_atomic(path, json.dumps(manifest, indent=1).encode())
     return trials
 
 
@@ -306,11 +287,11 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
     for r in results:
         for k, v in r.statuses.items():
             statuses[k] = statuses.get(k, 0) + v
-    sensor = mission.planner.fixed_sensors.sensor if planner == "fixed-sensors" else mission.sensor
+    sensor = make_policy(planner, mission).sensor  # the fixed sensors carry their own
     return {
         "mission": str(mission.path), "planner": planner, "trials": len(results), "steps": mission.steps,
         "seed": mission.seed, "truth": mission.truth,
-        "clutter_rate": None if planner == "baseline" else sensor.clutter_rate,
+        "clutter_rate": None if sensor is None else sensor.clutter_rate,
         "filter": mission.filter.kind,
         "particles": mission.filter.particles if mission.filter.kind == "particle" else None,
         "targets": [t.name for t in mission.targets],

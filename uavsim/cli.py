@@ -20,7 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import Mission, MissionError, load_mission
+from .config import load_mission, parse_value
+from .files import write_atomic, write_json
+from .mission import Mission, MissionError
+from .uav import BASELINE, PLANNERS
 
 
 def _summary(m: Mission) -> str:
@@ -132,15 +135,15 @@ def cmd_plan(args: argparse.Namespace) -> int:
     return 0 if all(r["status"] == "optimal" for r in rows) else 1
 
 
-def _campaign_mission(args: argparse.Namespace) -> Mission:
-    from .campaign import with_overrides
+def _flag_overrides(args: argparse.Namespace) -> dict:
+    """The campaign flags as mission overrides (validated by the mission reader)."""
+    flags = {"trials": args.trials, "steps": args.steps, "seed": args.seed,
+             "sensor.clutter_rate": getattr(args, "clutter_rate", None)}
+    return {k: v for k, v in flags.items() if v is not None}
 
-    for flag in ("trials", "steps"):
-        if getattr(args, flag) is not None and getattr(args, flag) < 1:
-            raise UsageError(f"--{flag} must be at least 1")
-    _seed(args.seed)
-    overrides = {} if args.clutter_rate is None else {"sensor.clutter_rate": args.clutter_rate}
-    return with_overrides(load_mission(args.mission, overrides), args.steps, args.trials, args.seed)
+
+def _campaign_mission(args: argparse.Namespace) -> Mission:
+    return load_mission(args.mission, _flag_overrides(args))
 
 
 def _progress(args: argparse.Namespace, label: str):
@@ -167,9 +170,9 @@ def _baseline(args: argparse.Namespace, mission: Mission, out: Path, cache: dict
     it does not depend on the sensor, the UAV or the planner)."""
     from .campaign import fingerprint
 
-    key = fingerprint(mission, "baseline")
+    key = fingerprint(mission, BASELINE)
     if key not in cache:
-        cache[key] = _campaign(args, mission, "baseline", out)
+        cache[key] = _campaign(args, mission, BASELINE, out)
     return cache[key]
 
 
@@ -179,7 +182,7 @@ def _study(args: argparse.Namespace, mission: Mission, planner: str, out: Path, 
     from .campaign import with_baseline
 
     summary = _campaign(args, mission, planner, out, record)
-    if planner == "baseline":
+    if planner == BASELINE:
         return summary
     return with_baseline(summary, _baseline(args, mission, base_out, cache))
 
@@ -206,13 +209,6 @@ def _print_summary(s: dict) -> None:
           f"truth {t['truth']:.3f}, total {t['total']:.3f}; guidance plans {s['guidance_status']}")
 
 
-def _write_json(path: Path, data) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1))
-    tmp.replace(path)
-
-
 def cmd_run(args: argparse.Namespace) -> int:
     mission = _campaign_mission(args)
     planner = args.planner or mission.planner.name
@@ -226,7 +222,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     out = _output_folder(args.out or f"runs/{mission.path.stem}-{planner}",
                          files=("summary.json", "rmse.png", "nees.png"))
     summary = _study(args, mission, planner, out, out / "baseline", {}, record)
-    _write_json(out / "summary.json", summary)
+    write_json(out / "summary.json", summary)
     _print_summary(summary)
     _figures({planner: summary}, out)
     opened = f" and {args.record} (open it with: rerun {args.record})" if record else ""
@@ -242,8 +238,6 @@ def _figures(summaries: dict[str, dict], out: Path) -> None:
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
-    from .sim import PLANNERS
-
     mission = _campaign_mission(args)
     planners = [p.strip() for p in args.planners.split(",") if p.strip()]
     unknown = [p for p in planners if p not in PLANNERS]
@@ -257,7 +251,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     for planner in planners:
         results[planner] = _study(args, mission, planner, out / planner, out / "baseline", cache)
         _print_summary(results[planner])
-    _write_json(out / "compare.json", results)
+    write_json(out / "compare.json", results)
     _figures(results, out)
     print(f"wrote {out / 'compare.json'}, {out / 'rmse.png'} and {out / 'nees.png'}")
     return 0
@@ -277,8 +271,6 @@ def _split_values(text: str) -> list[str]:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from .campaign import with_overrides
-    from .config import parse_value
     from .plots import sweep_plot
 
     key, sep, text = args.set.partition("=")
@@ -287,16 +279,12 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         raise UsageError("--set needs KEY=V1,V2,... (for example sensor.clutter_rate=0,1,2,4,8)")
     if args.clutter_rate is not None:
         raise UsageError("sweep takes the swept key from --set; drop --clutter-rate")
-    for flag in ("trials", "steps"):
-        if getattr(args, flag) is not None and getattr(args, flag) < 1:
-            raise UsageError(f"--{flag} must be at least 1")
-    _seed(args.seed)
     try:
         values_parsed = [parse_value(v) for v in values]
     except ValueError as exc:
         raise UsageError(f"--set: {exc}") from None
-    missions = [with_overrides(load_mission(args.mission, {key: v}), args.steps, args.trials, args.seed)
-                for v in values_parsed]  # validate every value before running any
+    flags = _flag_overrides(args)
+    missions = [load_mission(args.mission, {**flags, key: v}) for v in values_parsed]  # validate all first
     out = _output_folder(args.out, files=("sweep.json", "sweep.csv", "sweep.png"))
     for value in values:
         _output_folder(out / f"{key}={value}", "--out", files=("summary.json",))
@@ -305,7 +293,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         planner = args.planner or mission.planner.name
         folder = out / f"{key}={value}"
         s = _study(args, mission, planner, folder, folder / "baseline", cache)
-        _write_json(folder / "summary.json", s)
+        write_json(folder / "summary.json", s)
         base = s.get("baseline", {})
         rows.append({"key": key, "value": value, "planner": planner, "trials": s["trials"],
                      "time_avg_rmse": s["time_avg_rmse"], "final_rmse": s["rmse"][-1],
@@ -315,7 +303,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                      "seconds_per_step": s["timing"]["total"]})
         ratio = f", {base['ratio']:.3f} of the no-information baseline" if base else ""
         print(f"{key} = {value}: time-averaged RMSE {s['time_avg_rmse']:.2f} m{ratio}, final {s['rmse'][-1]:.2f} m")
-    _write_json(out / "sweep.json", rows)
+    write_json(out / "sweep.json", rows)
     with open(out / "sweep.csv", "w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
         writer.writeheader()
@@ -345,7 +333,7 @@ def cmd_tma_reproduce(args: argparse.Namespace) -> int:
     _seed(args.seed)
     out = _output_folder(args.out or f"runs/{args.name}", files=("result.json", "rmse.png"))
     result = reproduce(args.name, runs, args.seed)
-    _write_json(out / "result.json", result)
+    write_json(out / "result.json", result)
     tma_rmse_plot(result, out / "rmse.png")
     print(table(result))
     print(f"wrote {out / 'result.json'} and {out / 'rmse.png'}")
@@ -373,8 +361,8 @@ def cmd_world_generate(args: argparse.Namespace) -> int:
     _output_folder(out.parent)
     command = f"uavsim world generate --seed {args.seed} --obstacles {args.obstacles} --targets {len(gen.target_goals)}"
     gen = replace(gen, name=out.stem, seed=args.seed)
-    _write_text(world, world_toml(gen, command))
-    _write_text(out, mission_toml(gen, world.name, command))
+    write_atomic(world, world_toml(gen, command))
+    write_atomic(out, mission_toml(gen, world.name, command))
     print(f"wrote {out} and {world}: {len(gen.obstacle_names)} obstacles, {len(gen.target_goals)} targets, "
           f"area {_size(gen.area_hi - gen.area_lo)} m")
     return 0
@@ -382,12 +370,6 @@ def cmd_world_generate(args: argparse.Namespace) -> int:
 
 def _size(v) -> str:
     return " x ".join(f"{x:g}" for x in v[:2])
-
-
-def _write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text)
-    tmp.replace(path)
 
 
 # Paper 001's study: `uavsim tma reproduce li2022-line | li2022-arc-slow | li2022-arc-fast`
@@ -415,7 +397,7 @@ def _tma_reproduce_li2022(args: argparse.Namespace) -> int:
     out = _output_folder(args.out or f"runs/{args.name}", files=("result.json", "curves.png", "sweep.png"))
     result = reproduce(args.name, runs, args.seed, rhos)
     written = [out / "result.json", out / "curves.png"] + ([out / "sweep.png"] if rhos else [])
-    _write_json(written[0], result)
+    write_json(written[0], result)
     li2022_curves_plot(result, written[1])
     print(table(result))
     if rhos:
@@ -498,8 +480,6 @@ def build_parser() -> argparse.ArgumentParser:
                    help="highs: exact outer approximation (default); scip: SCIP through cvxpy, for cross-checks")
     p.add_argument("--time-limit", type=float, default=None, help="seconds per target (default: the mission's)")
     p.set_defaults(func=cmd_plan)
-
-    from .sim import PLANNERS
 
     p = sub.add_parser("run", help="run a Monte-Carlo campaign of the closed loop; writes DIR/summary.json")
     _campaign_args(p)

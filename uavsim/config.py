@@ -1,10 +1,16 @@
-"""Mission and world files -> validated frozen dataclasses.  Nothing else reads files.
+"""Mission and world files -> validated frozen objects.  Nothing else reads files.
 
 A mission (``missions/*.toml``) names a world (``worlds/*.toml``, path relative to the
 mission file) and holds targets, dynamics, sensor, UAV, guidance, filter and planner
-settings.  Units are in key names (``sigma_deg``, ``speed_max_mps``); covariances in SI
-(m^2, m^2/s^2) carry ``_si``.  Every problem is raised as :class:`MissionError`, which
-names the file and the key path (``targets[2].cov0_si``) and says what is wrong.
+settings.  This module only reads and checks: every settings object is defined beside
+the code that uses it (``World``, ``Dynamics``, ``Sensor``, ``GuidanceConfig``,
+``FilterConfig``, ``UavConfig``, ``PlannerConfig``), and no domain module imports this
+one.  Overrides (``load_mission(path, {"sensor.clutter_rate": 8})``) are the one route
+for command-line flags, sweeps and tests: they replace the file's values before
+validation, so they are checked like the file.  Units are in key names (``sigma_deg``,
+``speed_max_mps``); covariances in SI (m^2, m^2/s^2) carry ``_si``.  Every problem is
+raised as :class:`MissionError`, which names the file and the key path
+(``targets[2].cov0_si``) and says what is wrong.
 """
 
 from __future__ import annotations
@@ -13,32 +19,21 @@ import difflib
 import math
 import os
 import tomllib
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .estimators.plkf import FILTERS
+from .belief import KINDS, FilterConfig
+from .guidance.model import GuidanceConfig
+from .mission import TRUTH_MODES, Mission, MissionError
 from .sensing import Sensor
 from .targets import Dynamics, Target
+from .uav import PLANNERS, FixedSensorsConfig, ManoeuvreConfig, PlannerConfig, UavConfig
 from .world import GoalRegion, Region2D, World, free_space, ground_footprints, inside_polytopes
 
 DEFAULT_FIXED_SENSORS = [[150.0, 200.0], [800.0, 200.0], [500.0, 900.0]]  # 004 Sec. VI-B, a 1 km area
-PLANNERS = ("optimized", "zigzag", "square", "pentagon", "circle", "fixed-sensors", "baseline")
-TRUTH_MODES = ("planned", "stochastic")
 _MISSING = object()
-
-
-class MissionError(Exception):
-    """A bad mission or world file: which file, which key, what is wrong."""
-
-    def __init__(self, file: str | Path, key: str, message: str):
-        super().__init__(f"{file}: {key}: {message}")
-        self.file, self.key, self.message = str(file), key, message
-
-    def __reduce__(self):  # raised in a worker process, re-raised here
-        return MissionError, (self.file, self.key, self.message)
 
 
 # --------------------------------------------------------------------------- reader
@@ -194,107 +189,6 @@ def _load_toml(path: Path, referrer: tuple[Path, str] | None = None) -> dict[str
         raise MissionError(path, "(file)", f"cannot read: {exc.strerror or exc}") from None
 
 
-# --------------------------------------------------------------------------- records
-@dataclass(frozen=True, eq=False)
-class UavConfig:
-    """UAV grid motion Eq. (3) and where it may fly.
-
-    Attributes
-    ----------
-    start : (3,) m; step : Delta_r (m); n_theta, n_r : grid sizes; altitude : h (m);
-    region : optional operating region (Sec. VI-B "allowed sub-region");
-    random_start : each trial draws the start uniformly in the region (or the area) at
-        altitude h, outside obstacles (Sec. VI-B); otherwise every trial starts at ``start``.
-    """
-
-    start: np.ndarray
-    step: float
-    n_theta: int
-    n_r: int
-    altitude: float
-    region: Region2D | None
-    random_start: bool = False
-
-
-@dataclass(frozen=True)
-class GuidanceConfig:
-    """Problem (P1) settings (Eq. 7-8); see :mod:`uavsim.guidance`."""
-
-    horizon: int
-    rho: float
-    force_max: float
-    speed_max: float
-    speed_sides: int
-    clearance: float
-    gap: float
-    time_limit: float  # s, nominal budget of a first plan (see uavsim.guidance)
-    horizon_mode: str = "receding"
-    replan_budget: float = 0.25  # s, nominal budget of a re-plan
-
-
-@dataclass(frozen=True)
-class FilterConfig:
-    """The estimator: ``kind = "particle"`` (004 Sec. V-A, the default) or one of 002's
-    pseudo-linear Kalman filters (clutter-free sensors only); particle settings."""
-
-    particles: int
-    resample_threshold: float
-    roughening: float
-    kind: str = "particle"
-
-
-@dataclass(frozen=True)
-class ManoeuvreConfig:
-    """Pre-computed manoeuvres of Sec. VI-B (Fig. 3).  The paper publishes no sizes;
-    the mission chooses them.  ``step`` is the distance flown per time step."""
-
-    step: float
-    zigzag_length: float
-    zigzag_width: float
-    zigzag_legs: int
-    square_side: float
-    pentagon_radius: float
-    circle_radius: float
-
-
-@dataclass(frozen=True, eq=False)
-class FixedSensorsConfig:
-    """The 3-sensor baseline of Sec. VI-B: static bearing sensors, no false alarms."""
-
-    positions: np.ndarray  # (S, 3)
-    sensor: Sensor
-
-
-@dataclass(frozen=True, eq=False)
-class PlannerConfig:
-    """Which UAV planner runs (Sec. V-B, VI-B) and the settings of the alternatives."""
-
-    name: str
-    manoeuvres: ManoeuvreConfig
-    fixed_sensors: FixedSensorsConfig
-
-
-@dataclass(frozen=True, eq=False)
-class Mission:
-    """A validated mission: everything a run needs, nothing read later."""
-
-    path: Path
-    world_path: Path
-    world: World
-    dynamics: Dynamics
-    targets: tuple[Target, ...]
-    sensor: Sensor
-    uav: UavConfig
-    guidance: GuidanceConfig
-    filter: FilterConfig
-    planner: PlannerConfig
-    steps: int
-    trials: int
-    seed: int
-    truth: str
-    description: str = field(default="")
-
-
 # --------------------------------------------------------------------------- world
 def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> World:
     """Read and validate a world file."""
@@ -406,15 +300,26 @@ def load_mission(path: str | Path, overrides: dict[str, object] | None = None) -
 
     Raises
     ------
-    MissionError naming file, key path and problem.
+    MissionError naming file, key path and problem (and saying so when the bad value was
+    an override rather than the file's).
     """
     path = Path(path)
     data = _load_toml(path)
-    for key, value in (overrides or {}).items():
+    overrides = overrides or {}
+    for key, value in overrides.items():
         try:
             _set_key(data, key, value, path)
         except (IndexError, ValueError, KeyError):
             raise MissionError(path, key, "no such key to set (array index out of range?)") from None
+    try:
+        return _mission(path, data)
+    except MissionError as exc:
+        if exc.key in overrides and exc.file == str(path):
+            raise MissionError(exc.file, exc.key, f"{exc.message} (an override, not the file's value)") from None
+        raise
+
+
+def _mission(path: Path, data: dict) -> Mission:
     top = _Table(path, "", data)
     world_rel = top.string("world")
     world_path = Path(os.path.normpath(path.parent / world_rel))
@@ -540,7 +445,7 @@ def _guidance(t: _Table) -> GuidanceConfig:
 
 
 def _filter(t: _Table, sensor: Sensor) -> FilterConfig:
-    kind = t.string("kind", default="particle", choices=("particle", *FILTERS))
+    kind = t.string("kind", default="particle", choices=KINDS)
     if kind != "particle" and sensor.clutter_rate > 0:
         t.fail("kind", f"{kind} has no clutter model: it needs sensor.clutter_rate = 0 "
                        f"(got {sensor.clutter_rate:g}); use kind = \"particle\"")

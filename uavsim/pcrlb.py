@@ -66,7 +66,7 @@ trapezoid rule on uniform grids in s and u; for these analytic, fast-decaying in
 it converges geometrically (Trefethen & Weideman, SIAM Review 56(3), 2014).  Measured:
 the default grids agree with 2x and 4x finer, wider ones to about 1e-13 (tests), and with a
 Monte Carlo through :func:`uavsim.sensing.observe` and
-:func:`uavsim.filtering.log_likelihood` within its standard error.  The bearing noise is
+:func:`uavsim.belief.particle.log_likelihood` within its standard error.  The bearing noise is
 taken as Gaussian on the line, so sigma is limited to ``pi / 8``, where the wrapped tail
 ``2 Phi(-pi / sigma)`` is below 1e-15.
 

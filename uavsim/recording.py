@@ -30,7 +30,7 @@ import rerun.blueprint as rrb
 from scipy.spatial.transform import Rotation
 
 from . import metrics
-from .config import Mission
+from .mission import Mission
 from .sim import StepInfo
 
 PALETTE = np.array([[230, 60, 60], [60, 110, 230], [150, 70, 200], [40, 170, 80], [230, 150, 30], [30, 170, 190]])
@@ -111,13 +111,14 @@ class Recorder:
             rec.log(f"metrics/nees/{bound}", rr.SeriesLines(colors=[[128, 128, 128]], names=[f"95% {bound[5:]}"]),
                     static=True)
         self.band = metrics.nees_band(len(self.names), len(metrics.POS))
-        if self.planner == "fixed-sensors":
-            rec.log("world/sensors", rr.Points3D(self.m.planner.fixed_sensors.positions, radii=[8.0],
-                                                 colors=[[20, 20, 20]], labels=["S1", "S2", "S3"]), static=True)
 
     # ------------------------------------------------------------------ per step
     def __call__(self, info: StepInfo) -> None:
         rec = self.rec
+        if info.t == 0 and info.uav is None and len(info.observers):  # static sensors: part of the scene
+            rec.log("world/sensors", rr.Points3D(info.observers, radii=[8.0], colors=[[20, 20, 20]],
+                                                 labels=[f"S{k + 1}" for k in range(len(info.observers))]),
+                    static=True)
         rec.set_time("step", sequence=info.t)
         self.truth_path.append(info.truth[:, :3])
         self.est_path.append(info.mean[:, :3])
@@ -168,13 +169,13 @@ class Recorder:
         return info.particles[:, idx, :3]
 
     def _uav(self, info: StepInfo) -> None:
-        if self.planner in ("fixed-sensors", "baseline"):
+        if info.uav is None:
             return
         rec = self.rec
-        self.uav_path.append(info.observers[0])
-        rec.log("uav/position", rr.Points3D([info.observers[0]], colors=[[0, 0, 0]], radii=[7.0], labels=["UAV"]))
+        self.uav_path.append(info.uav)
+        rec.log("uav/position", rr.Points3D([info.uav], colors=[[0, 0, 0]], radii=[7.0], labels=["UAV"]))
         rec.log("uav/path", rr.LineStrips3D([np.array(self.uav_path)], colors=[[0, 0, 0]], radii=[1.2]))
-        if info.candidates is not None:
+        if info.candidates is not None and info.scores is not None:  # scored by Eq. (13), not given from outside
             ok = np.isfinite(info.scores)
             s = info.scores[ok]
             frac = (s - s.min()) / max(np.ptp(s), 1e-12)  # 0: best (green) .. 1: worst (red)

@@ -21,6 +21,8 @@ from functools import cached_property
 
 import numpy as np
 
+from .estimators.plkf import predict
+
 
 def transition_matrices(dt: float, friction: float, mass: float) -> tuple[np.ndarray, np.ndarray]:
     """``A (6, 6)`` and ``B (6, 3)`` of Eq. (2).
@@ -73,6 +75,13 @@ class Dynamics:
             x_next = x_next + rng.standard_normal(x_next.shape) @ self.q_chol.T
         return x_next
 
+    def predict(self, mean: np.ndarray, cov: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """One step of Eq. (6) for Gaussians ``N(mean (..., 6), cov (..., 6, 6))`` and
+        forces ``u (..., 3)``: ``A mu + B u``, ``A Sigma A^T + Q`` (the estimator library's
+        :func:`uavsim.estimators.plkf.predict` plus the force)."""
+        m, s = predict(mean, cov, self.a, self.q)
+        return m + u @ self.b.T, s
+
     def predict_moments(
         self, mean: np.ndarray, cov: np.ndarray, controls: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -86,8 +95,7 @@ class Dynamics:
         means, covs = np.empty((n, 6)), np.empty((n, 6, 6))
         m, s = mean, cov
         for k in range(n):  # T <= a few hundred; the recursion is inherently sequential
-            m = self.a @ m + self.b @ controls[k]
-            s = self.a @ s @ self.a.T + self.q
+            m, s = self.predict(m, s, controls[k])
             means[k], covs[k] = m, s
         return means, covs
 

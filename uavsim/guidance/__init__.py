@@ -25,12 +25,11 @@ from dataclasses import dataclass, replace
 import cvxpy as cp
 import numpy as np
 
-from ..config import GuidanceConfig
 from ..targets import Dynamics
 from ..world import GROUND_BAND_M, World
 from .compiled import assemble_p1
 from .faces import Reach
-from .model import KN, build_p1, geometry
+from .model import KN, GuidanceConfig, build_p1, geometry
 from .oa import Budget, OuterApproximation
 
 SOLVERS = ("highs", "scip")
@@ -137,17 +136,18 @@ class Guidance:
         return t if self.cfg.horizon_mode == "receding" else max(2, t - step % t)
 
     def plan(self, mean: np.ndarray, cov: np.ndarray, goal: np.ndarray, warm: Plan | None = None,
-             horizon: int | None = None) -> Plan:
+             step: int = 0) -> Plan:
         """Solve P1 from the belief ``N(mean (6,), cov (6, 6))`` (Eq. 8c) to ``goal (3,)``.
 
         ``warm``: the previous plan of this target (its faces and terms, shifted one step);
         with it the solve spends ``replan_budget_s``, without it ``time_limit_s``.
-        ``horizon``: the plan's length (default: the mission's T).
+        ``step``: the mission step the plan starts at, which sets its horizon
+        (:meth:`horizon_at`).
         """
         t0 = time.perf_counter()
-        horizon = horizon or self.cfg.horizon
+        horizon = self.horizon_at(step)
         key = None
-        if warm is None:  # e.g. every trial's truth plans: the same inputs, the same plan
+        if warm is None:  # e.g. every trial's filter plans from the prior: the same inputs, the same plan
             key = np.r_[mean, cov.ravel(), goal, horizon].tobytes()
             if key in self._cold:
                 return self._cold[key]
@@ -157,6 +157,22 @@ class Guidance:
                 self._cold.pop(next(iter(self._cold)))
             self._cold[key] = plan
         return plan
+
+    def replan(self, mean: np.ndarray, cov: np.ndarray, goal: np.ndarray, previous: Plan | None,
+               step: int) -> Plan:
+        """The closed loop's plan, which always exists: a new plan (:meth:`plan`); if none is
+        found, ``previous`` one step on (:meth:`Plan.shifted`); without a previous plan,
+        zero force over the horizon.  The last two have status "fallback" and say why."""
+        plan = self.plan(mean, cov, goal, warm=previous, step=step)
+        if plan.ok:
+            return plan
+        if previous is not None:
+            return previous.shifted(self.dynamics, mean, cov, f"re-plan {plan.status} ({plan.message}); "
+                                                            "flying the previous plan")
+        controls = np.zeros((self.horizon_at(step), 3))
+        means, covs = self.dynamics.predict_moments(mean, cov, controls)
+        return replace(plan, status="fallback", controls=controls, means=means, covs=covs,
+                       message=f"no plan ({plan.status}: {plan.message}); coasting")
 
     def _plan(self, mean, cov, goal, warm, horizon, t0) -> Plan:
         _, oa = self._model(horizon)

@@ -49,11 +49,36 @@ from dataclasses import dataclass
 import cvxpy as cp
 import numpy as np
 
-from ..config import GuidanceConfig
 from ..targets import Dynamics
 from ..world import World, ground_footprints
 
 KN = 1000.0  # model force unit: 1 kN
+
+
+@dataclass(frozen=True)
+class GuidanceConfig:
+    """Problem (P1) settings (Eq. 7-8) and the solver's budgets.
+
+    Attributes
+    ----------
+    horizon : T; rho : control-increment weight (N^-2 m^2); force_max : |u_x|, |u_y| (N);
+    speed_max : ground speed (m/s); speed_sides : sides of the inscribed speed polygon;
+    clearance : extra obstacle margin (m); gap : certified relative gap;
+    time_limit : nominal budget (s) of a first plan; replan_budget : of a re-plan (see
+    :mod:`uavsim.guidance`); horizon_mode : "receding" or "shrinking" (see
+    :meth:`uavsim.guidance.Guidance.horizon_at`).
+    """
+
+    horizon: int
+    rho: float
+    force_max: float
+    speed_max: float
+    speed_sides: int
+    clearance: float
+    gap: float
+    time_limit: float
+    horizon_mode: str = "receding"
+    replan_budget: float = 0.25
 
 
 @dataclass(frozen=True, eq=False)

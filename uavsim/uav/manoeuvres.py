@@ -1,56 +1,36 @@
-"""UAV motion: grid moves, their admission, and the pre-computed manoeuvres.
+"""Pre-computed UAV manoeuvres (004_22b452551a772073.txt Sec. VI-B, Fig. 3).
 
-004_22b452551a772073.txt Eq. (3): from ``s_{t-1}`` the UAV may move to::
-
-    (s_x + lam Dr cos(kap Dth), s_y + lam Dr sin(kap Dth), h),
-    lam in {0..N_r}, kap in {1..N_th}, Dth = 2 pi / N_th
-
-(move angles measured from +x, counter-clockwise, exactly as Eq. (3) writes them).
-``lam = 0`` is one "stay" candidate, so there are ``1 + N_r N_th`` distinct positions.
-A candidate is admissible when it lies in the area and the operating region, outside
-every obstacle, and the straight segment to it crosses no obstacle (Sec. V-B, last
-paragraph; a crossing move is as bad as one that ends inside).
-
-Manoeuvres (Sec. VI-B, Fig. 3): closed loops (zig-zag, square, pentagon, circle) whose
-first waypoint is placed at the UAV's start, shifted as little as needed to lie inside
-the operating region; the UAV flies straight to the loop's first waypoint if shifted,
-then round the loop, ``step`` metres per time step, for as long as the mission lasts.
+Closed loops (zig-zag, square, pentagon, circle) whose first waypoint is placed at the
+UAV's start, shifted as little as needed to lie inside the operating region; the UAV
+flies straight to the loop's first waypoint if shifted, then round the loop, ``step``
+metres per time step, for as long as the mission lasts.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from .config import ManoeuvreConfig, MissionError, UavConfig
-from .world import Region2D, World
+from ..mission import Mission, MissionError
+from ..world import Region2D, World
+from .grid import UavConfig, uav_start
 
 MANOEUVRES = ("zigzag", "square", "pentagon", "circle")
 
 
-def move_offsets(step: float, n_theta: int, n_r: int) -> np.ndarray:
-    """``(1 + n_r * n_theta, 2)`` planar offsets of Eq. (3); row 0 is "stay".
+@dataclass(frozen=True)
+class ManoeuvreConfig:
+    """Pre-computed manoeuvres of Sec. VI-B (Fig. 3).  The paper publishes no sizes;
+    the mission chooses them.  ``step`` is the distance flown per time step."""
 
-    Rows run over lam = 1..n_r (outer) and kap = 1..n_theta (inner).
-    """
-    lam = np.arange(1, n_r + 1)[:, None]
-    ang = 2.0 * np.pi * np.arange(1, n_theta + 1)[None, :] / n_theta
-    ring = np.stack([lam * step * np.cos(ang), lam * step * np.sin(ang)], axis=-1).reshape(-1, 2)
-    return np.vstack([np.zeros((1, 2)), ring])
-
-
-def candidates(position: np.ndarray, uav: UavConfig) -> np.ndarray:
-    """``(C, 3)`` candidate next positions of Eq. (3) from ``position (3,)`` at altitude h."""
-    off = move_offsets(uav.step, uav.n_theta, uav.n_r)
-    xy = position[:2] + off
-    return np.column_stack([xy, np.full(len(off), uav.altitude)])
-
-
-def admissible(position: np.ndarray, cands: np.ndarray, world: World, uav: UavConfig) -> np.ndarray:
-    """``(C,)`` bool: candidate is in the area and region, not in nor through an obstacle."""
-    ok = world.in_area(cands) & ~world.in_obstacle(cands) & ~world.segment_blocked(position, cands)
-    if uav.region is not None:
-        ok &= uav.region.contains(cands)
-    return ok
+    step: float
+    zigzag_length: float
+    zigzag_width: float
+    zigzag_legs: int
+    square_side: float
+    pentagon_radius: float
+    circle_radius: float
 
 
 def manoeuvre_loop(name: str, cfg: ManoeuvreConfig) -> np.ndarray:
@@ -127,3 +107,32 @@ def manoeuvre_route(name: str, start: np.ndarray, cfg: ManoeuvreConfig, uav: Uav
         raise MissionError(mission_path, "planner.manoeuvres",
                            f"the {name} manoeuvre fits nowhere in the operating region clear of obstacles")
     return Route(start, placed, cfg.step, h)
+
+
+class Manoeuvre:
+    """The policy that flies one manoeuvre from its start (see module docstring); the
+    UAV's own sensor."""
+
+    def __init__(self, name: str, mission: Mission):
+        self.name, self.m, self.sensor = name, mission, mission.sensor
+        self.route: Route | None = None
+        self.position = mission.uav.start.copy()
+
+    def reset(self, rng) -> None:
+        m = self.m
+        self.position = uav_start(rng, m.uav, m.world, m.path)
+        self.route = manoeuvre_route(self.name, self.position, m.planner.manoeuvres, m.uav, m.world, m.path)
+
+    @property
+    def observers(self) -> np.ndarray:
+        return self.position[None, :]
+
+    @property
+    def uav(self) -> np.ndarray:
+        return self.position
+
+    def act(self, t: int, belief, action: int | None = None):
+        if action is not None:
+            raise ValueError(f"the {self.name} manoeuvre takes no actions")
+        self.position = self.route.position(t + 1)
+        return None, None

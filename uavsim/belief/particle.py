@@ -30,8 +30,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.special import logsumexp
 
-from .estimators.plkf import UPDATES
-from .sensing import Scan, Sensor, bearing, wrap_angle
+from ..sensing import Scan, Sensor, bearing, wrap_angle
+from ..targets import Dynamics
+from .traces import pseudo_traces
 
 LOG_2PI = np.log(2.0 * np.pi)
 
@@ -168,46 +169,36 @@ def scan_loglik(scan: Scan, particles: np.ndarray, observer: np.ndarray, sensor:
     return log_likelihood(scan.bearings, scan.valid, bearing(particles, observer), sensor)
 
 
-class PseudoLinearTracks:
-    """M targets tracked by one of 002's pseudo-linear Kalman filters instead of particles
-    (``filter.kind``; clutter-free missions only, enforced by the mission validation).
+class ParticleBelief:
+    """The :class:`uavsim.belief.Belief` of 004 Sec. V-A: M particle filters with the
+    clutter likelihood, systematic resampling (and roughening) when the ESS is low, and the
+    pseudo-posterior traces of Eq. (12) for the UAV's decision."""
 
-    The 6-D state ``[x, y, z, vx, vy, vz]`` is predicted exactly (Eq. 9a in moments:
-    ``A mu + B u``, ``A Sigma A^T + Q``); a detection updates it with 002's pseudo-linear
-    step on the horizontal position ``(0, 1)`` and velocity ``(3, 4)``.  Bearings convert
-    at this edge: 002 measures from +x anticlockwise, ``beta = pi/2 - phi``.  A channel
-    without a detection keeps its prediction; a degenerate update is skipped and reported.
-    VC-PLKF bounds the horizontal speed to ``[0, v_max]`` (the guidance speed limit).
+    def __init__(self, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int,
+                 resample_threshold: float, roughening: float, names: tuple[str, ...]):
+        self.rng, self.names = rng, names
+        self.threshold, self.roughening = resample_threshold, roughening
+        self.pf = ParticleFilter.from_priors(rng, means, covs, n)
 
-    Attributes
-    ----------
-    mean : (M, 6); cov : (M, 6, 6).
-    """
+    def predict(self, dynamics: Dynamics, controls: np.ndarray) -> None:
+        self.pf.predict(self.rng, dynamics.a, dynamics.b, dynamics.q_chol, controls)
 
-    def __init__(self, kind: str, means: np.ndarray, covs: np.ndarray, v_max: float):
-        if kind not in UPDATES:
-            raise ValueError(f"unknown filter {kind!r}; choose from {', '.join(UPDATES)}")
-        self.kind, self.mean, self.cov = kind, means.astype(float).copy(), covs.astype(float).copy()
-        self.kw = {"v_min": 0.0, "v_max": v_max} if kind == "vc-plkf" else {}
-
-    def predict(self, rng: np.random.Generator, a: np.ndarray, b: np.ndarray, q_chol: np.ndarray,
-                controls: np.ndarray) -> None:
-        self.mean = self.mean @ a.T + controls @ b.T
-        self.cov = a @ self.cov @ a.T + q_chol @ q_chol.T
-
-    def update(self, scan: Scan, observer: np.ndarray, sigma: float) -> np.ndarray:
-        """One clutter-free scan from ``observer (3,)``.  Returns (M,) bool: degenerate."""
-        m = len(self.mean)
-        detected = scan.valid.any(axis=1)
-        if not detected.any():
-            return np.zeros(m, bool)
-        phi = scan.bearings[np.arange(m), np.argmax(scan.valid, axis=1)]
-        x, p, ok = UPDATES[self.kind](self.mean, self.cov, np.pi / 2 - phi, observer[:2], sigma,
-                                      pos=(0, 1), vel=(3, 4), **self.kw)
-        take = detected & ok
-        self.mean = np.where(take[:, None], x, self.mean)
-        self.cov = np.where(take[:, None, None], p, self.cov)
-        return detected & ~ok
+    def update(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor) -> list[str]:
+        if not scans:  # no sensor: the prediction is the posterior
+            return []
+        loglik = sum(scan_loglik(s, self.pf.particles, o, sensor) for s, o in zip(scans, observers))
+        events = [f"{self.names[j]}: degenerate update skipped (no particle explains the bearings)"
+                  for j in np.flatnonzero(self.pf.update(loglik))]
+        resampled = self.pf.resample(self.rng, self.threshold, self.roughening)
+        if resampled.any():
+            events.append("resampled " + ", ".join(self.names[j] for j in np.flatnonzero(resampled)))
+        return events
 
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
-        return self.mean.copy(), self.cov.copy()
+        return self.pf.moments()
+
+    def traces(self, candidates: np.ndarray, sigma: float) -> np.ndarray:
+        return pseudo_traces(candidates, self.pf.particles, self.pf.weights, sigma)
+
+    def samples(self) -> np.ndarray:
+        return self.pf.particles.copy()

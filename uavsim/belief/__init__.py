@@ -1,0 +1,66 @@
+"""Per-target beliefs (004_22b452551a772073.txt Sec. V-A): one interface, two kinds.
+
+A :class:`Belief` holds all M targets' posteriors.  Each step the closed loop predicts it
+with the dynamics and each target's planned force (Eq. 9a), updates it with the scans of
+the sensors and where they were (Eq. 9b-11), reads its moments (Eq. 11), and asks it for
+the pseudo-posterior covariance traces the UAV's candidate positions would give
+(Eq. 12-13).  :func:`make_belief` builds the kind the mission's ``[filter]`` names:
+
+* ``particle`` (:mod:`.particle`, the paper's): particle filters with the clutter
+  likelihood;
+* one of 002's pseudo-linear Kalman filters (:mod:`.gaussian`), clutter-free missions only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from ..estimators.plkf import FILTERS
+from ..sensing import Scan, Sensor
+from ..targets import Dynamics
+from .gaussian import GaussianBelief
+from .particle import ParticleBelief
+
+KINDS = ("particle", *FILTERS)
+
+
+@dataclass(frozen=True)
+class FilterConfig:
+    """The estimator: ``kind = "particle"`` (004 Sec. V-A, the default) or one of 002's
+    pseudo-linear Kalman filters (clutter-free sensors only); particle settings."""
+
+    particles: int
+    resample_threshold: float
+    roughening: float
+    kind: str = "particle"
+
+
+class Belief(Protocol):
+    """M targets' posteriors.  Shapes: means (M, 6), covariances (M, 6, 6)."""
+
+    def predict(self, dynamics: Dynamics, controls: np.ndarray) -> None:
+        """Eq. (9a) with each target's force ``controls (M, 3)``."""
+
+    def update(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor) -> list[str]:
+        """Eq. (9b) with one scan per observer ``(S, 3)``; returns event messages
+        (degenerate updates skipped, resampling).  No scans: nothing changes."""
+
+    def moments(self) -> tuple[np.ndarray, np.ndarray]:
+        """Eq. (11): means and covariances (copies)."""
+
+    def traces(self, candidates: np.ndarray, sigma: float) -> np.ndarray:
+        """Eq. (12): ``(C, M)`` pseudo-posterior covariance traces for UAV positions ``(C, >=2)``."""
+
+    def samples(self) -> np.ndarray | None:
+        """``(M, N, 6)`` particles to draw (a copy), or None for a Gaussian belief."""
+
+
+def make_belief(cfg: FilterConfig, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray,
+                speed_max: float, names: tuple[str, ...]) -> Belief:
+    """The belief ``cfg.kind`` names, starting from the priors ``N(means, covs)``."""
+    if cfg.kind == "particle":
+        return ParticleBelief(rng, means, covs, cfg.particles, cfg.resample_threshold, cfg.roughening, names)
+    return GaussianBelief(cfg.kind, means, covs, speed_max, names)

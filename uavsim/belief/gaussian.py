@@ -1,0 +1,71 @@
+"""Gaussian beliefs: 002's pseudo-linear Kalman filters in place of particles.
+
+M targets tracked by one of 002_4e3cd4c0a7df16d8.txt's filters (``filter.kind``;
+clutter-free missions only, enforced by the mission validation).  The 6-D state
+``[x, y, z, vx, vy, vz]`` is predicted exactly (Eq. 9a in moments, :meth:`Dynamics.predict`);
+a detection updates it with 002's pseudo-linear step on the horizontal position
+``(0, 1)`` and velocity ``(3, 4)``.  Bearings convert at this edge: 002 measures from +x
+anticlockwise, ``beta = pi/2 - phi``.  A channel without a detection keeps its prediction;
+a degenerate update is skipped and reported.  VC-PLKF bounds the horizontal speed to
+``[0, v_max]`` (the guidance speed limit).  The UAV's decision uses Eq. (12)-(13)
+linearised (:func:`.traces.gaussian_traces`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..estimators.plkf import UPDATES
+from ..sensing import Scan, Sensor
+from ..targets import Dynamics
+from .traces import gaussian_traces
+
+
+class GaussianBelief:
+    """The :class:`uavsim.belief.Belief` of a pseudo-linear filter.
+
+    Attributes
+    ----------
+    mean : (M, 6); cov : (M, 6, 6).
+    """
+
+    def __init__(self, kind: str, means: np.ndarray, covs: np.ndarray, v_max: float, names: tuple[str, ...]):
+        if kind not in UPDATES:
+            raise ValueError(f"unknown filter {kind!r}; choose from {', '.join(UPDATES)}")
+        self.kind, self.names = kind, names
+        self.mean, self.cov = means.astype(float).copy(), covs.astype(float).copy()
+        self.kw = {"v_min": 0.0, "v_max": v_max} if kind == "vc-plkf" else {}
+
+    def predict(self, dynamics: Dynamics, controls: np.ndarray) -> None:
+        self.mean, self.cov = dynamics.predict(self.mean, self.cov, controls)
+
+    def update(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor) -> list[str]:
+        """Each sensor's clutter-free scan in turn."""
+        events = []
+        for scan, observer in zip(scans, observers):
+            events += [f"{self.names[j]}: degenerate {self.kind} update skipped"
+                       for j in np.flatnonzero(self._update(scan, observer, sensor.sigma))]
+        return events
+
+    def _update(self, scan: Scan, observer: np.ndarray, sigma: float) -> np.ndarray:
+        """One scan from ``observer (3,)``.  Returns (M,) bool: degenerate."""
+        m = len(self.mean)
+        detected = scan.valid.any(axis=1)
+        if not detected.any():
+            return np.zeros(m, bool)
+        phi = scan.bearings[np.arange(m), np.argmax(scan.valid, axis=1)]
+        x, p, ok = UPDATES[self.kind](self.mean, self.cov, np.pi / 2 - phi, observer[:2], sigma,
+                                      pos=(0, 1), vel=(3, 4), **self.kw)
+        take = detected & ok
+        self.mean = np.where(take[:, None], x, self.mean)
+        self.cov = np.where(take[:, None, None], p, self.cov)
+        return detected & ~ok
+
+    def moments(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.mean.copy(), self.cov.copy()
+
+    def traces(self, candidates: np.ndarray, sigma: float) -> np.ndarray:
+        return gaussian_traces(candidates, self.mean, self.cov, sigma)
+
+    def samples(self) -> None:
+        return None

@@ -1,0 +1,88 @@
+"""The true targets of one trial (004_22b452551a772073.txt Sec. III-A, VI-B).
+
+Each trial draws every target's true initial state from its prior ``N(mu_0, Sigma_0)``
+(restricted to starts outside every obstacle that stay out during their first step
+``p + v dt``, which no force can change), then moves it by the mission's truth mode:
+
+* ``planned`` (the paper, Sec. VI-B): along the noise-free guidance plan computed from
+  that drawn start at t = 1 (re-planned noise-free from its end if the mission outlasts
+  the horizon);
+* ``stochastic``: re-planned from the true state every step, moving by Eq. (1) with
+  process noise.
+
+The filter starts from the prior, never from the drawn truth.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .guidance import Guidance, Plan
+from .mission import Mission, MissionError
+
+START_DRAWS = 1000  # prior draws per target to find a free-space true start
+
+
+class Truth:
+    """True states ``state (M, 6)`` of one trial; ``controls`` then ``move`` each step.
+
+    ``start_rng`` draws the initial states, ``noise_rng`` the process noise (separate
+    streams, so both truth modes start from the same draw)."""
+
+    def __init__(self, mission: Mission, guidance: Guidance, start_rng: np.random.Generator,
+                 noise_rng: np.random.Generator):
+        self.m, self.guidance, self.rng = mission, guidance, noise_rng
+        self.state = self._start(start_rng)
+        self.plans: list[Plan | None] = [None] * len(mission.targets)
+        if mission.truth == "planned":
+            self.plans = self._noise_free_plans(0)
+
+    def _start(self, rng: np.random.Generator) -> np.ndarray:
+        """(M, 6): per target the first of ``START_DRAWS`` prior draws that is clear (see
+        module docstring).  A fixed number of draws, so the stream does not depend on
+        where the obstacles are."""
+        means = np.array([t.mean0 for t in self.m.targets])
+        covs = np.array([t.cov0 for t in self.m.targets])
+        z = rng.standard_normal((START_DRAWS, *means.shape))  # (D, M, 6)
+        draws = means + np.einsum("mij,dmj->dmi", np.linalg.cholesky(covs), z)
+        world = self.m.world
+        p0 = world.on_ground(draws[..., :3])
+        p1 = world.on_ground(p0 + self.m.dynamics.dt * draws[..., 3:])
+        free = ~world.in_obstacle(p0) & ~world.segment_blocked(p0, p1)  # (D, M)
+        if not free.any(axis=0).all():
+            j = int(np.argmin(free.any(axis=0)))
+            raise MissionError(self.m.path, f"targets[{j}].cov0_si",
+                               f"none of {START_DRAWS} draws from the prior is outside the obstacles "
+                               "and clear of them after one step")
+        return draws[np.argmax(free, axis=0), np.arange(len(means))]
+
+    def _noise_free_plans(self, step: int) -> list[Plan]:
+        plans = []
+        for j, x in enumerate(self.state):
+            plan = self.guidance.plan(x, np.zeros((6, 6)), self.m.goals[j], step=step)
+            if not plan.ok:
+                raise MissionError(self.m.path, f"targets[{j}].position_m",
+                                   f"no guidance plan from this start for the truth ({plan.status}: {plan.message})")
+            plans.append(plan)
+        return plans
+
+    def controls(self, t: int, events: list[str]) -> np.ndarray:
+        """(M, 3) the forces the true targets apply at step t (module docstring)."""
+        if self.m.truth == "planned":
+            k = t % len(self.plans[0].controls)
+            if t and k == 0:  # the mission outlasts the horizon: plan on from the end
+                self.plans = self._noise_free_plans(t)
+            return np.array([plan.controls[k] for plan in self.plans])
+        zero = np.zeros((6, 6))
+        self.plans = [self.guidance.replan(x, zero, self.m.goals[j], self.plans[j], t)
+                      for j, x in enumerate(self.state)]
+        events += [f"{self.m.targets[j].name} (truth): {p.message}" for j, p in enumerate(self.plans)
+                   if p.status == "fallback"]
+        return np.array([p.controls[0] for p in self.plans])
+
+    def move(self, t: int, controls: np.ndarray) -> None:
+        """Eq. (1): exactly along the plan (``planned``), or with process noise."""
+        if self.m.truth == "planned":
+            self.state = np.array([plan.means[t % len(plan.controls)] for plan in self.plans])
+        else:
+            self.state = self.m.dynamics.step(self.state, controls, rng=self.rng)

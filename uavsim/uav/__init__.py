@@ -1,0 +1,74 @@
+"""UAV policies (004_22b452551a772073.txt Sec. V-B, VI-B): where the sensors are and how
+they move, one registry of interchangeable objects.
+
+A :class:`Policy` is reset at the start of a trial (drawing its start from its own
+stream), names the observers ``(S, 3)`` that scan this step and the sensor they carry,
+and moves with :meth:`Policy.act` once the belief has been predicted.  :data:`POLICIES`
+maps the names a mission or the command line uses to their makers:
+
+* ``optimized``: the grid move of least summed pseudo-posterior trace (Eq. 3, 12-13),
+  or a move chosen from outside (``Simulation.step(action)``, the Gymnasium environment);
+* ``zigzag``, ``square``, ``pentagon``, ``circle``: pre-computed loops (Fig. 3);
+* ``fixed-sensors``: three static sensors without false alarms (Fig. 2c);
+* ``baseline``: no sensor (the no-information baseline).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import partial
+from typing import Protocol
+
+import numpy as np
+
+from ..mission import Mission
+from ..sensing import Sensor
+from .fixed import FixedSensors, FixedSensorsConfig, NoSensor
+from .grid import GridOptimizer, UavConfig, admissible, candidates, move_offsets, uav_start
+from .manoeuvres import MANOEUVRES, Manoeuvre, ManoeuvreConfig, Route, manoeuvre_loop, manoeuvre_route, place_loop
+
+POLICIES = {"optimized": GridOptimizer, **{n: partial(Manoeuvre, n) for n in MANOEUVRES},
+            "fixed-sensors": FixedSensors, "baseline": NoSensor}
+PLANNERS = tuple(POLICIES)
+BASELINE = "baseline"  # the policy every study is measured against
+
+__all__ = ["POLICIES", "PLANNERS", "BASELINE", "MANOEUVRES", "Policy", "PlannerConfig", "UavConfig", "ManoeuvreConfig",
+           "FixedSensorsConfig", "GridOptimizer", "Manoeuvre", "FixedSensors", "NoSensor", "Route", "make_policy",
+           "admissible", "candidates", "move_offsets", "uav_start", "manoeuvre_loop", "manoeuvre_route", "place_loop"]
+
+
+@dataclass(frozen=True, eq=False)
+class PlannerConfig:
+    """Which UAV policy runs (Sec. V-B, VI-B) and the settings of the alternatives."""
+
+    name: str
+    manoeuvres: ManoeuvreConfig
+    fixed_sensors: FixedSensorsConfig
+
+
+class Policy(Protocol):
+    """A UAV behaviour.  ``sensor`` is None for the no-sensor baseline; ``uav`` the UAV's
+    position ``(3,)`` or None when no UAV flies."""
+
+    name: str
+    sensor: Sensor | None
+
+    def reset(self, rng: np.random.Generator) -> None:
+        """Place the observers for a new trial."""
+
+    @property
+    def observers(self) -> np.ndarray:
+        """``(S, 3)`` where the sensors are this step."""
+
+    @property
+    def uav(self) -> np.ndarray | None: ...
+
+    def act(self, t: int, belief, action: int | None = None) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """Move for step ``t + 1`` given the predicted belief; returns the candidate
+        positions and their scores where the policy chose among candidates."""
+
+
+def make_policy(name: str, mission: Mission) -> Policy:
+    if name not in POLICIES:
+        raise ValueError(f"unknown planner {name!r}; choose from {', '.join(POLICIES)}")
+    return POLICIES[name](mission)

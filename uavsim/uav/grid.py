@@ -1,0 +1,137 @@
+"""The UAV's grid moves and the decision rule that picks one (the ``optimized`` policy).
+
+004_22b452551a772073.txt Eq. (3): from ``s_{t-1}`` the UAV may move to::
+
+    (s_x + lam Dr cos(kap Dth), s_y + lam Dr sin(kap Dth), h),
+    lam in {0..N_r}, kap in {1..N_th}, Dth = 2 pi / N_th
+
+(move angles measured from +x, counter-clockwise, exactly as Eq. (3) writes them).
+``lam = 0`` is one "stay" candidate, so there are ``1 + N_r N_th`` distinct positions.
+A candidate is admissible when it lies in the area and the operating region, outside
+every obstacle, and the straight segment to it crosses no obstacle (Sec. V-B, last
+paragraph; a crossing move is as bad as one that ends inside).  The ``optimized`` policy
+(Sec. V-B) goes to the admissible candidate of least summed pseudo-posterior covariance
+trace, Eq. (12)-(13), asked of the belief.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..belief.traces import decide
+from ..mission import Mission, MissionError
+from ..world import Region2D, World
+
+
+@dataclass(frozen=True, eq=False)
+class UavConfig:
+    """UAV grid motion Eq. (3) and where it may fly.
+
+    Attributes
+    ----------
+    start : (3,) m; step : Delta_r (m); n_theta, n_r : grid sizes; altitude : h (m);
+    region : optional operating region (Sec. VI-B "allowed sub-region");
+    random_start : each trial draws the start uniformly in the region (or the area) at
+        altitude h, outside obstacles (Sec. VI-B); otherwise every trial starts at ``start``.
+    """
+
+    start: np.ndarray
+    step: float
+    n_theta: int
+    n_r: int
+    altitude: float
+    region: Region2D | None
+    random_start: bool = False
+
+
+def move_offsets(step: float, n_theta: int, n_r: int) -> np.ndarray:
+    """``(1 + n_r * n_theta, 2)`` planar offsets of Eq. (3); row 0 is "stay".
+
+    Rows run over lam = 1..n_r (outer) and kap = 1..n_theta (inner).
+    """
+    lam = np.arange(1, n_r + 1)[:, None]
+    ang = 2.0 * np.pi * np.arange(1, n_theta + 1)[None, :] / n_theta
+    ring = np.stack([lam * step * np.cos(ang), lam * step * np.sin(ang)], axis=-1).reshape(-1, 2)
+    return np.vstack([np.zeros((1, 2)), ring])
+
+
+def candidates(position: np.ndarray, uav: UavConfig) -> np.ndarray:
+    """``(C, 3)`` candidate next positions of Eq. (3) from ``position (3,)`` at altitude h."""
+    off = move_offsets(uav.step, uav.n_theta, uav.n_r)
+    xy = position[:2] + off
+    return np.column_stack([xy, np.full(len(off), uav.altitude)])
+
+
+def admissible(position: np.ndarray, cands: np.ndarray, world: World, uav: UavConfig) -> np.ndarray:
+    """``(C,)`` bool: candidate is in the area and region, not in nor through an obstacle."""
+    ok = world.in_area(cands) & ~world.in_obstacle(cands) & ~world.segment_blocked(position, cands)
+    if uav.region is not None:
+        ok &= uav.region.contains(cands)
+    return ok
+
+
+def uav_start(rng: np.random.Generator, uav: UavConfig, world: World, mission_path, tries: int = 10_000) -> np.ndarray:
+    """The UAV's start: the mission's, or uniform in the region (area) at altitude h,
+    outside obstacles (rejection sampling, in batches; fixed draw count per batch)."""
+    if not uav.random_start:
+        return uav.start.copy()
+    lo, hi = world.area_lo[:2], world.area_hi[:2]
+    if uav.region is not None:
+        lo, hi = np.maximum(lo, uav.region.vertices.min(0)), np.minimum(hi, uav.region.vertices.max(0))
+    for _ in range(tries // 100):
+        p = np.column_stack([rng.uniform(lo, hi, (100, 2)), np.full(100, uav.altitude)])
+        ok = ~world.in_obstacle(p) & (uav.region.contains(p) if uav.region is not None else True)
+        if ok.any():
+            return p[np.argmax(ok)]
+    raise MissionError(mission_path, "uav.random_start",
+                       f"no free start found in {tries} draws: the operating region is (nearly) all obstacle")
+
+
+class GridOptimizer:
+    """The ``optimized`` policy: one grid move per step, chosen by Eq. (13) or given."""
+
+    name = "optimized"
+
+    def __init__(self, mission: Mission):
+        self.m, self.sensor = mission, mission.sensor
+        self.position = mission.uav.start.copy()
+
+    def reset(self, rng: np.random.Generator) -> None:
+        self.position = uav_start(rng, self.m.uav, self.m.world, self.m.path)
+
+    @property
+    def observers(self) -> np.ndarray:
+        return self.position[None, :]
+
+    @property
+    def uav(self) -> np.ndarray:
+        return self.position
+
+    def moves(self) -> tuple[np.ndarray, np.ndarray]:
+        """The candidate positions ``(C, 3)`` and which are admissible ``(C,)``."""
+        cands = candidates(self.position, self.m.uav)
+        return cands, admissible(self.position, cands, self.m.world, self.m.uav)
+
+    def choose(self, belief) -> tuple[np.ndarray, np.ndarray, int]:
+        """Eq. (13) on the predicted ``belief``: the candidates, their summed traces
+        (``inf``: not admissible) and the index of the best."""
+        cands, ok = self.moves()
+        best, scores = decide(cands, ok, lambda c: belief.traces(c, self.sensor.sigma))
+        return cands, scores, best
+
+    def act(self, t: int, belief, action: int | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+        """Move: to candidate ``action`` if given (it must be admissible), else by Eq. (13)
+        (staying put when no move is admissible).  Returns the candidates and, when the
+        rule chose, their summed traces."""
+        if action is not None:
+            cands, ok = self.moves()
+            if not (0 <= action < len(cands) and ok[action]):
+                raise ValueError(f"move {action} is not admissible here")
+            self.position = cands[action]
+            return cands, None
+        cands, scores, best = self.choose(belief)
+        if np.isfinite(scores[best]):
+            self.position = cands[best]
+        return cands, scores
