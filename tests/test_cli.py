@@ -129,7 +129,7 @@ def test_resume_on_broken_folders(capsys, tmp_path):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["run", M, *QUICK, "--seed", "-1"], "--seed must be >= 0, got -1"),
+    (["run", M, *QUICK, "--seed", "-1"], f"{M}: seed: must be >= 0, got -1 (an override, not the file's value)"),
     (["tma", "reproduce", "huang2021-scenario1", "--seed", "-1"], "--seed must be >= 0, got -1"),
     (["plan", M, "--time-limit", "0"], "--time-limit must be a positive number of seconds, got 0.0"),
     (["plan", M, "--time-limit", "nan"], "--time-limit must be a positive number of seconds, got nan"),

@@ -447,7 +447,7 @@ def _reproduce_oh2021(args: argparse.Namespace) -> int:
     out = _output_folder(args.out or "runs/oh2021", files=("result.json", "fig4_sigma.png", "fig5_scans.png"))
     result = oh2021.study(runs, args.seed, targets, sigmas, scans, methods,
                           workers=args.workers or os.cpu_count() or 1, progress=progress)
-    _write_json(out / "result.json", result)
+    write_json(out / "result.json", result)
     figures = oh2021_plots(result, out)
     print(oh2021.table(result))
     print(f"wrote {out / 'result.json'} and " + ", ".join(str(f) for f in figures))
