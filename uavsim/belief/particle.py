@@ -25,16 +25,17 @@ A degenerate update (every particle has zero likelihood, e.g. a missed detection
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.special import logsumexp
 
-from ..sensing import Scan, Sensor, bearing, wrap_angle
+from ..sensing import Scan, Sensor, wrap_angle
 from ..targets import Dynamics
 from .traces import pseudo_traces
 
 LOG_2PI = np.log(2.0 * np.pi)
+EXP_FLOOR = -700.0  # exp(-700) = 1e-304: nothing next to a sum >= 1
 
 
 def log_likelihood(bearings: np.ndarray, valid: np.ndarray, expected: np.ndarray, sensor: Sensor) -> np.ndarray:
@@ -43,7 +44,7 @@ def log_likelihood(bearings: np.ndarray, valid: np.ndarray, expected: np.ndarray
     Parameters
     ----------
     bearings, valid : (M, K) one scan's padded measurement sets.
-    expected : (M, N) noise-free bearings ``l(x, s)`` of the particles.
+    expected : (M, N) noise-free bearings ``l(x, s)`` of the particles (any angle; wrapped here).
 
     Returns
     -------
@@ -53,24 +54,62 @@ def log_likelihood(bearings: np.ndarray, valid: np.ndarray, expected: np.ndarray
     ----------
     004_22b452551a772073.txt Eq. (10).
     """
+    return _log_likelihood(wrap_angle(bearings), valid, wrap_angle(expected), sensor)
+
+
+def _log_likelihood(bearings: np.ndarray, valid: np.ndarray, expected: np.ndarray, sensor: Sensor) -> np.ndarray:
+    """:func:`log_likelihood` for bearings and ``expected`` already in ``[-pi, pi]``.
+
+    The ``1 + K`` association hypotheses ("all clutter", "column k is the target") lie on
+    a leading axis, so the log-sum-exp over them is a few elementwise passes over
+    ``(M, N)`` arrays (a reduction over a short last axis is several times slower).
+    With both angles in ``[-pi, pi]`` the wrapped residual has ``|r| = pi - |pi - |d||``,
+    ``d = l - phi``: no ``mod``.  Shifted terms below ``EXP_FLOOR`` are raised to it
+    before ``exp``: the sum they join is at least 1 (the largest term is ``exp(0)``), so
+    ``e^-700`` and 0 give the same double, and ``exp`` of an underflowing argument runs
+    several times slower.
+    """
     lam, pd, sig = sensor.clutter_rate, sensor.p_detect, sensor.sigma
-    n = valid.sum(axis=1)  # (M,) set sizes
-    log_lc = np.log(lam) - LOG_2PI if lam > 0 else -np.inf  # log(L / 2pi)
-    log_pd = np.log(pd) if pd > 0 else -np.inf
-    log_miss_p = np.log1p(-pd) if pd < 1 else -np.inf
+    log_miss, log_det = _hypothesis_logs(valid.sum(axis=1), lam, pd)  # (M,) each
+    # per hypothesis (K, M): log p_D (L / 2pi)^(n-1) / (sigma sqrt(2 pi)); -inf for padding
+    const = np.where(valid.T, log_det - math.log(sig) - 0.5 * LOG_2PI, -np.inf)[:, :, None]
+    terms = np.subtract(expected, bearings.T[:, :, None])  # (K, M, N) d = l - phi in [-2pi, 2pi]
+    np.abs(terms, out=terms)
+    np.subtract(np.pi, terms, out=terms)
+    np.abs(terms, out=terms)
+    np.subtract(np.pi, terms, out=terms)  # |r|
+    np.square(terms, out=terms)
+    terms *= -0.5 / sig**2
+    terms += const
+    top = np.maximum(terms.max(axis=0, initial=-np.inf), log_miss[:, None])  # (M, N) largest hypothesis
+    dead = np.isneginf(log_miss) & np.isneginf(log_det)  # (M,) no hypothesis can explain the set
+    if dead.any():
+        top[dead] = 0.0
+    terms -= top
+    np.maximum(terms, EXP_FLOOR, out=terms)
+    total = np.exp(terms, out=terms).sum(axis=0)
+    total += np.exp(np.maximum(log_miss[:, None] - top, EXP_FLOOR))
+    out = np.log(total, out=total)
+    out += top
+    out -= lam
+    if dead.any():
+        out[dead] = -np.inf
+    return out
 
-    def clutter(k):  # log (L / 2pi)^k with k = 0 giving 0 even when L = 0
-        with np.errstate(invalid="ignore"):
-            return np.where(k == 0, 0.0, k * log_lc)
 
-    log_miss = log_miss_p + clutter(n)  # all n measurements are clutter
-    log_det = np.where(n >= 1, log_pd + clutter(np.maximum(n - 1, 0)), -np.inf)  # one is the target
-    resid = wrap_angle(bearings[:, None, :] - expected[:, :, None])  # (M, N, K)
-    log_c = -0.5 * (resid / sig) ** 2 - np.log(sig) - 0.5 * LOG_2PI
-    log_c = np.where(valid[:, None, :], log_c, -np.inf)
-    terms = np.concatenate([np.broadcast_to(log_miss[:, None, None], log_c.shape[:2] + (1,)),
-                            log_det[:, None, None] + log_c], axis=2)
-    return -lam + logsumexp(terms, axis=2)
+def _hypothesis_logs(n: np.ndarray, lam: float, pd: float) -> tuple[np.ndarray, np.ndarray]:
+    """Eq. (10) with the factorials cancelled, for set sizes ``n (M,)``: the log weights of
+    "all n are clutter", ``log (1 - p_D) (L / 2pi)^n``, and of "one given measurement is
+    the target", ``log p_D (L / 2pi)^(n-1)`` (``-inf`` for ``n = 0``)."""
+    log_pd = math.log(pd) if pd > 0 else -np.inf
+    log_miss_p = math.log1p(-pd) if pd < 1 else -np.inf
+
+    def clutter(k):  # log (L / 2pi)^k, with (0 / 2pi)^0 = 1
+        return k * (math.log(lam) - LOG_2PI) if lam > 0 else np.where(k == 0, 0.0, -np.inf)
+
+    log_miss = log_miss_p + clutter(n)
+    log_det = np.where(n >= 1, log_pd + clutter(np.maximum(n - 1, 0)), -np.inf)
+    return log_miss, log_det
 
 
 @dataclass
@@ -84,6 +123,7 @@ class ParticleFilter:
 
     particles: np.ndarray
     logw: np.ndarray
+    _work: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # scratch buffers
 
     @classmethod
     def from_priors(cls, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int) -> "ParticleFilter":
@@ -99,22 +139,30 @@ class ParticleFilter:
 
     def predict(self, rng: np.random.Generator, a: np.ndarray, b: np.ndarray, q_chol: np.ndarray,
                 controls: np.ndarray) -> None:
-        """Eq. (9a): ``x <- A x + B u + nu`` with ``controls (M, 3)``."""
-        noise = rng.standard_normal(self.particles.shape) @ q_chol.T
-        self.particles = self.particles @ a.T + (controls @ b.T)[:, None, :] + noise
+        """Eq. (9a): ``x <- A x + B u + nu`` with ``controls (M, 3)``.
+
+        The noise goes through two buffers kept between calls: fresh temporaries of this
+        size cost page faults on every step (the allocator returns them to the system)."""
+        x = self.particles @ a.T
+        x += (controls @ b.T)[:, None, :]
+        noise = rng.standard_normal(out=_scratch(self._work, "z", x.shape))
+        x += np.matmul(noise, q_chol.T, out=_scratch(self._work, "noise", x.shape))
+        self.particles = x
 
     def update(self, loglik: np.ndarray) -> np.ndarray:
         """Eq. (9b) with ``loglik (M, N)``.  Returns (M,) bool: the update was degenerate
         (no particle explains the measurements) and was skipped for that target."""
         logw = self.logw + loglik
-        norm = logsumexp(logw, axis=1)
+        norm = _logsumexp_rows(logw)
         bad = ~np.isfinite(norm)
-        self.logw = np.where(bad[:, None], self.logw, logw - np.where(bad, 0.0, norm)[:, None])
+        logw -= np.where(bad, 0.0, norm)[:, None]
+        self.logw = np.where(bad[:, None], self.logw, logw) if bad.any() else logw
         return bad
 
     def ess(self) -> np.ndarray:
         """(M,) effective sample size ``1 / sum w^2``."""
-        return 1.0 / np.exp(logsumexp(2.0 * self.logw, axis=1))
+        w = self.weights
+        return 1.0 / np.einsum("mn,mn->m", w, w)
 
     def resample(self, rng: np.random.Generator, threshold: float, roughening: float = 0.0) -> np.ndarray:
         """Systematic resampling of the targets whose ESS fell below ``threshold * N``.
@@ -139,7 +187,7 @@ class ParticleFilter:
 
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
         """Eq. (11): weighted means (M, 6) and covariances (M, 6, 6)."""
-        return weighted_moments(self.particles, self.weights)
+        return weighted_moments(self.particles, self.weights, self._work)
 
 
 def systematic_indices(rng: np.random.Generator, weights: np.ndarray) -> np.ndarray:
@@ -156,17 +204,49 @@ def systematic_indices(rng: np.random.Generator, weights: np.ndarray) -> np.ndar
     return np.minimum(idx.reshape(r, n) - offsets * n, n - 1)
 
 
-def weighted_moments(particles: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Mean (M, d) and covariance (M, d, d) of weighted particles (weights sum to 1 per row)."""
-    mean = np.einsum("mn,mnd->md", weights, particles)
-    centred = particles - mean[:, None, :]
-    cov = np.einsum("mn,mnd,mne->mde", weights, centred, centred)
-    return mean, cov
+def weighted_moments(particles: np.ndarray, weights: np.ndarray, work: dict | None = None
+                     ) -> tuple[np.ndarray, np.ndarray]:
+    """Mean (M, d) and covariance (M, d, d) of weighted particles (weights sum to 1 per row).
+
+    Computed on the transposed particles ``(M, d, N)``: every elementwise pass then runs
+    along N (a pass broadcast along a last axis of length d is several times slower), and
+    the two sums are batched matrix products.  ``work``: a dict of scratch buffers kept
+    between calls (see :meth:`ParticleFilter.predict`)."""
+    xt = particles.transpose(0, 2, 1)  # (M, d, N) view
+    mean = (xt @ weights[:, :, None])[..., 0]
+    centred, scaled = (_scratch(work, name, xt.shape) for name in ("centred", "scaled"))
+    np.subtract(xt, mean[:, :, None], out=centred)  # (M, d, N) contiguous
+    np.multiply(centred, weights[:, None, :], out=scaled)
+    return mean, scaled @ centred.transpose(0, 2, 1)
+
+
+def _scratch(work: dict | None, name: str, shape: tuple[int, ...]) -> np.ndarray:
+    """``work[name]`` if it has this shape, else a new float64 array (kept in ``work``)."""
+    buf = None if work is None else work.get(name)
+    if buf is None or buf.shape != shape:
+        buf = np.empty(shape)
+        if work is not None:
+            work[name] = buf
+    return buf
+
+
+def _logsumexp_rows(a: np.ndarray) -> np.ndarray:
+    """``log sum_n exp(a[m, n])`` per row; a row without a finite maximum (all ``-inf``,
+    or a NaN or ``+inf`` in it) gives its maximum (so ``-inf``, NaN or ``+inf``)."""
+    top = a.max(axis=1)
+    ok = np.isfinite(top)
+    shifted = a - np.where(ok, top, 0.0)[:, None]
+    np.maximum(shifted, EXP_FLOOR, out=shifted)  # see _log_likelihood: the sum is >= 1
+    return np.where(ok, np.log(np.exp(shifted, out=shifted).sum(axis=1)) + top, top)
 
 
 def scan_loglik(scan: Scan, particles: np.ndarray, observer: np.ndarray, sensor: Sensor) -> np.ndarray:
-    """Eq. (10) for every particle ``(M, N, 6)`` and one scan taken at ``observer (3,)``."""
-    return log_likelihood(scan.bearings, scan.valid, bearing(particles, observer), sensor)
+    """Eq. (10) for every particle ``(M, N, 6)`` and one scan taken at ``observer (3,)``.
+
+    The particles' bearings are :func:`uavsim.sensing.bearing` without its wrap: ``atan2``
+    already lies in ``[-pi, pi]``, which is all the likelihood needs."""
+    expected = np.arctan2(particles[..., 0] - observer[0], particles[..., 1] - observer[1])
+    return _log_likelihood(wrap_angle(scan.bearings), scan.valid, expected, sensor)
 
 
 class ParticleBelief:
