@@ -45,6 +45,26 @@ def test_traces_and_choice_match_the_loop():
     assert best == int(np.argmin(masked)) and np.isinf(total[[5, 17]]).all()
 
 
+def test_blocks_over_particles_add_up_to_the_loop():
+    """3001 particles in blocks of BLOCK_ELEMENTS / (61 x 2) = 537 (the last one short).
+    Target 0 is spread across the line of sight (sd 200 m at ~640 m, ~17 deg) and stored
+    sorted by x, so the outer blocks hold no particle within 13 sigma of the mean's
+    bearing: their own sums are taken relative to their best particle and must be
+    scaled down (to 0 in float64 for the outermost) when the blocks are added."""
+    from uavsim.planning import BLOCK_ELEMENTS
+
+    rng = np.random.default_rng(8)
+    n = 3001
+    assert BLOCK_ELEMENTS // (61 * 2) < n
+    wide = cloud(rng, np.array([[530.0, 700, 0, 5, -5, 0]]), n, np.sqrt([4e4, 200, 1e-10, 20, 20, 1e-10]))[0]
+    narrow = cloud(rng, np.array([[820.0, 610, 0, -3, -8, 0]]), n, np.sqrt([200, 200, 1e-10, 20, 20, 1e-10]))[0]
+    particles = np.stack([wide[np.argsort(wide[:, 0])], narrow])
+    weights = rng.dirichlet(np.ones(n), size=2)
+    cands = np.column_stack([np.array([530.0, 60.0]) + move_offsets(5.0, 15, 4), np.full(61, 40.0)])
+    np.testing.assert_allclose(pseudo_traces(cands, particles, weights, SIGMA),
+                               brute_force(cands, particles, weights, SIGMA), rtol=1e-5)
+
+
 def test_ties_go_to_the_lowest_index():
     rng = np.random.default_rng(4)
     particles = cloud(rng, np.array([[500.0, 500, 0, 0, 0, 0]]), 200, 10.0)
