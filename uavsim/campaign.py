@@ -10,7 +10,9 @@
   distributed cluster through its ``concurrent.futures`` executor.
 * **What is kept.** With an output folder, each finished trial is written to
   ``DIR/trials/trial-KKKKK.npz`` at once, atomically (temporary file, fsync, rename),
-  and the summary is computed from those files.  ``resume`` runs only the trials without
+  not kept in memory, and the summary is computed from those files; with workers, at
+  most two trials per worker are in flight.  So memory does not grow with the trial
+  count while the trials run.  ``resume`` runs only the trials without
   a file, after checking ``DIR/campaign.json`` describes the same campaign.
 * **Metrics** (:mod:`.metrics`): the RMSE of Sec. VI-B per step and target, the
   per-trial mean squared errors (for paired statistics), the average NEES of the position
@@ -28,7 +30,7 @@ import io
 import json
 import time
 import zipfile
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, as_completed, wait
 from dataclasses import asdict, dataclass, replace
 from multiprocessing import get_context
 from pathlib import Path
@@ -200,7 +202,8 @@ def _prepare(out: Path, mission: Mission, planner: str, resume: bool) -> Path:
 
 # --------------------------------------------------------------------------- the campaign
 def _executor(workers: int, scheduler: str | None):
-    """A ``concurrent.futures`` executor and a closer, or None to run in this process."""
+    """A ``concurrent.futures`` executor, a closer and how many trials to keep in flight
+    (twice the worker threads), or None to run in this process."""
     if scheduler:
         try:
             from distributed import Client
@@ -210,11 +213,11 @@ def _executor(workers: int, scheduler: str | None):
             client = Client(scheduler)
         except (OSError, ValueError, TypeError) as exc:  # bad address, nobody listening, timeout
             raise CampaignError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
-        return client.get_executor(), client.close
+        return client.get_executor(), client.close, 2 * max(sum(client.nthreads().values()), 1)
     if workers > 1:
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
-        return pool, lambda: pool.shutdown(cancel_futures=True)
-    return None, lambda: None
+        return pool, lambda: pool.shutdown(cancel_futures=True), 2 * workers
+    return None, lambda: None, 0
 
 
 def run_campaign(mission: Mission, planner: str, out: Path | None = None, workers: int = 1,
@@ -230,30 +233,40 @@ def run_campaign(mission: Mission, planner: str, out: Path | None = None, worker
     t0 = time.perf_counter()
     seeds = trial_seeds(mission.seed, mission.trials)
     folder = _prepare_folder(Path(out), mission, planner, resume) if out is not None else None
-    results = load_trials(folder, range(mission.trials)) if folder is not None else {}
-    todo = [k for k in range(mission.trials) if k not in results]
+    # With a folder the trials live on disk (checked readable here, read back for the
+    # summary), not in memory: the campaign's memory does not grow with its trial count.
+    done = set(load_trials(folder, range(mission.trials))) if folder is not None else set()
+    results: dict[int, TrialResult] = {}
+    todo = [k for k in range(mission.trials) if k not in done]
     if progress:
-        progress.start(mission.trials, len(results))
+        progress.start(mission.trials, len(done))
 
     def finished(r: TrialResult) -> None:
-        results[r.index] = r
         if folder is not None:
             save_trial(folder, r)
+        else:
+            results[r.index] = r
         if progress:
             progress.advance()
 
     if record is not None:
         finished(_recorded_trial(mission, planner, seeds, record))
         todo = [k for k in todo if k != record[1]]
-    executor, close = _executor(min(workers, max(len(todo), 1)), scheduler) if todo else (None, lambda: None)
+    executor, close, window = _executor(min(workers, max(len(todo), 1)), scheduler) if todo else (None, lambda: None, 0)
     try:
         if executor is None:
             guidance = Guidance(mission.world, mission.dynamics, mission.guidance) if todo else None
             for k in todo:
                 finished(run_trial(mission, planner, k, seeds[k], guidance))
-        else:
-            futures: list[Future] = [executor.submit(_trial_task, mission, planner, k, seeds[k]) for k in todo]
-            for future in as_completed(futures):
+        else:  # at most `window` trials in flight: the executor holds no more than that
+            running = set()
+            for k in todo:
+                if len(running) == window:
+                    over, running = wait(running, return_when=FIRST_COMPLETED)
+                    for future in over:
+                        finished(future.result())
+                running.add(executor.submit(_trial_task, mission, planner, k, seeds[k]))
+            for future in as_completed(running):
                 finished(future.result())
     finally:
         close()
