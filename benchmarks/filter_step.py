@@ -1,0 +1,147 @@
+"""Particle filter step and Eq. (13) decision, before and after issue 17, interleaved.
+
+    OPENBLAS_NUM_THREADS=1 taskset -c 0 python benchmarks/filter_step.py [--repeats 200] [--decisions 15]
+
+"Before" is ``uavsim/filtering.py`` and ``uavsim/planning.py`` as of commit ``--before``
+(read with ``git show``, run against this checkout's other modules); "after" is this
+checkout.  Both run in one process, alternating call by call on the same inputs, so
+machine load hits both alike; each figure is the median (and the minimum) over the
+repeats.  Printed:
+
+* the filter step (predict, Eq. (10) likelihood, update, resampling check and the
+  resampling when the ESS is low, Eq. (11) moments) for 1 and 4 targets at N = 5000 with
+  the paper's sensor (Lambda = 1, p_D = 0.95, sigma = 1 deg), on a moving target seen
+  from a moving observer, with the page faults per step;
+* the likelihood alone on the same scans;
+* the decision, 61 moves x 4 targets x N particles for N = 1k ... 50k, in ns per
+  (move, target, particle): flat means linear in N.
+"""
+
+from __future__ import annotations
+
+import argparse
+import resource
+import subprocess
+import time
+import types
+from pathlib import Path
+
+import numpy as np
+
+import uavsim
+from uavsim import filtering, planning
+from uavsim.config import load_mission
+from uavsim.sensing import observe
+from uavsim.uav import move_offsets
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def before(module: str, commit: str) -> types.ModuleType | None:
+    """``uavsim.<module>`` as of ``commit``, or None when git cannot show it."""
+    try:
+        src = subprocess.run(["git", "show", f"{commit}:uavsim/{module}.py"], cwd=ROOT, check=True,
+                             capture_output=True, text=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    mod = types.ModuleType(f"uavsim._{module}_before")
+    mod.__package__ = uavsim.__name__  # its relative imports resolve against this checkout
+    exec(compile(src, f"{commit}:uavsim/{module}.py", "exec"), mod.__dict__)
+    return mod
+
+
+def faults() -> int:
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+
+
+def filter_runs(versions: dict, m: int, steps: int, n: int = 5000):
+    """Per version: seconds per filter step, seconds per likelihood, page faults per step."""
+    mission = load_mission(ROOT / "missions" / "paper.toml")
+    dyn, sensor = mission.dynamics, mission.sensor
+    means0 = np.array([t.mean0 for t in mission.targets])[:m]
+    covs0 = np.array([t.cov0 for t in mission.targets])[:m]
+    pfs = {k: mod.ParticleFilter.from_priors(np.random.default_rng(1), means0, covs0, n) for k, mod in versions.items()}
+    rngs = {k: np.random.default_rng(2) for k in versions}
+    out = {k: ([], [], []) for k in versions}
+    world = np.random.default_rng(3)
+    truth = means0.copy()
+    u = np.column_stack([np.full((m, 2), 500.0), np.zeros(m)])
+    for k in range(steps):
+        truth = dyn.step(truth, u, world)
+        observer = np.array([150.0 + 3 * k, 200.0, 40.0])
+        scan = observe(world, sensor, truth[:, :3], observer)
+        order = list(versions) if k % 2 else list(versions)[::-1]
+        for key in order:
+            mod, pf, rng = versions[key], pfs[key], rngs[key]
+            f0, t0 = faults(), time.perf_counter()
+            pf.predict(rng, dyn.a, dyn.b, dyn.q_chol, u)
+            pf.update(mod.scan_loglik(scan, pf.particles, observer, sensor))
+            pf.resample(rng, mission.filter.resample_threshold)
+            pf.moments()
+            t1, f1 = time.perf_counter(), faults()
+            mod.scan_loglik(scan, pf.particles, observer, sensor)
+            out[key][0].append(t1 - t0)
+            out[key][1].append(time.perf_counter() - t1)
+            out[key][2].append(f1 - f0)
+    return out
+
+
+def decision_runs(versions: dict, sizes, repeats: int) -> dict:
+    """Per version and N: seconds per decision (61 moves x 4 targets), the same number of
+    repeats for every N (a minimum over fewer samples is higher under load)."""
+    rng = np.random.default_rng(3)
+    centres = np.array([[281.0, 925, 0, 5, -5, 0], [238, 706, 0, -3, -8, 0], [901, 925, 0, 1, 1, 0],
+                        [885, 676, 0, 0, 2, 0]])
+    cands = np.column_stack([np.array([450.0, 300.0]) + move_offsets(5.0, 15, 4), np.full(61, 40.0)])
+    sigma = np.radians(1.0)
+    data = {}
+    for n in sizes:
+        p = centres[:, None, :] + rng.normal(size=(4, n, 6)) * np.sqrt([200, 200, 1e-10, 20, 20, 1e-10])
+        data[n] = (p, rng.dirichlet(np.ones(n), size=4))
+    out = {(k, n): [] for k in versions for n in sizes}
+    for r in range(repeats):
+        for n in sizes:  # sizes interleaved too, so load drifts hit every N alike
+            for key in (list(versions) if r % 2 else list(versions)[::-1]):
+                t0 = time.perf_counter()
+                versions[key].pseudo_traces(cands, *data[n], sigma)
+                out[key, n].append(time.perf_counter() - t0)
+    return out
+
+
+def ms(xs) -> str:
+    return f"{1e3 * np.median(xs):7.3f} ({1e3 * np.min(xs):6.3f})"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=200, help="filter steps per configuration")
+    ap.add_argument("--decisions", type=int, default=15, help="decisions per N")
+    ap.add_argument("--before", default="8c473d3", help="commit of the 'before' figures")
+    args = ap.parse_args()
+    old_f, old_p = before("filtering", args.before), before("planning", args.before)
+    if old_f is None:
+        print(f"git cannot show commit {args.before}: 'after' figures only")
+    filters = {"before": old_f, "after": filtering} if old_f else {"after": filtering}
+    plans = {"before": old_p, "after": planning} if old_p else {"after": planning}
+
+    print("ms per call, median (min), one process, versions alternating call by call")
+    for m in (1, 4):
+        res = filter_runs(filters, m, args.repeats)
+        print(f"\nfilter step, {m} target{'s' * (m > 1)} x 5000 particles, Lambda = 1, p_D = 0.95, sigma = 1 deg")
+        for key, (step, lik, flt) in res.items():
+            print(f"  {key:<7} step {ms(step)}   likelihood {ms(lik)}   page faults/step {np.mean(flt):6.1f}")
+        if len(res) == 2:
+            r = [np.median(res["before"][i]) / np.median(res["after"][i]) for i in (0, 1)]
+            print(f"  speed-up: step {r[0]:.1f}x, likelihood {r[1]:.1f}x")
+
+    sizes = (1000, 5000, 10_000, 20_000, 50_000)
+    res = decision_runs(plans, sizes, args.decisions)
+    print("\nEq. (13) decision, 61 moves x 4 targets x N particles: ms median (min), ns per (move, target, particle)")
+    for n in sizes:
+        row = "   ".join(f"{key} {ms(res[key, n])} {1e9 * np.median(res[key, n]) / (n * 244):5.2f} ns"
+                         for key in plans)
+        print(f"  N = {n:6d}: {row}")
+
+
+if __name__ == "__main__":
+    main()
