@@ -29,7 +29,8 @@ from pathlib import Path
 import numpy as np
 
 import uavsim
-from uavsim import filtering, planning
+from uavsim.belief import particle as filtering
+from uavsim.belief import traces as planning
 from uavsim.config import load_mission
 from uavsim.sensing import observe
 from uavsim.uav import move_offsets

@@ -75,9 +75,9 @@ from stonesoup.types.state import BernoulliParticleState, ParticleState, State
 from stonesoup.types.track import Track
 from stonesoup.updater.particle import BernoulliParticleUpdater, ParticleUpdater
 
+from uavsim.belief.particle import ParticleFilter, log_likelihood, scan_loglik
+from uavsim.belief.traces import decide, pseudo_traces
 from uavsim.config import load_mission
-from uavsim.filtering import ParticleFilter, log_likelihood, scan_loglik
-from uavsim.planning import decide, pseudo_traces
 from uavsim.sensing import Sensor, observe, wrap_angle
 from uavsim.uav import candidates
 

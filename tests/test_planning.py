@@ -51,7 +51,7 @@ def test_blocks_over_particles_add_up_to_the_loop():
     sorted by x, so the outer blocks hold no particle within 13 sigma of the mean's
     bearing: their own sums are taken relative to their best particle and must be
     scaled down (to 0 in float64 for the outermost) when the blocks are added."""
-    from uavsim.planning import BLOCK_ELEMENTS
+    from uavsim.belief.traces import BLOCK_ELEMENTS
 
     rng = np.random.default_rng(8)
     n = 3001

@@ -22,14 +22,13 @@ What is stored:
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from uavsim.belief.particle import ParticleFilter, log_likelihood, scan_loglik
 from uavsim.campaign import trial_seeds
 from uavsim.config import load_mission
-from uavsim.filtering import ParticleFilter, log_likelihood, scan_loglik
 from uavsim.sensing import Scan, Sensor, observe
 from uavsim.sim import Simulation
 
@@ -118,8 +117,8 @@ class RecordingGuidance:
     def __init__(self, guidance):
         self.inner, self.controls, self.means = guidance, [], []
 
-    def horizon_at(self, step):
-        return self.inner.horizon_at(step)
+    def replan(self, mean, cov, goal, previous, step):
+        return self.plan(mean, cov, goal, warm=previous, step=step)
 
     def plan(self, *args, **kw):
         plan = self.inner.plan(*args, **kw)
@@ -130,8 +129,7 @@ class RecordingGuidance:
 
 
 def loop_reference(out: dict) -> None:
-    m = load_mission(PAPER)
-    m = replace(m, steps=4, trials=1, filter=replace(m.filter, particles=300))
+    m = load_mission(PAPER, {"steps": 4, "trials": 1, "filter.particles": 300})
     sim = Simulation(m, "optimized")
     sim.guidance = recorder = RecordingGuidance(sim.guidance)
     infos = [sim.reset(trial_seeds(m.seed, 1)[0])] + [sim.step() for _ in range(m.steps)]
