@@ -89,10 +89,8 @@ def uav_start(rng: np.random.Generator, uav: UavConfig, world: World, mission_pa
                        f"no free start found in {tries} draws: the operating region is (nearly) all obstacle")
 
 
-class GridOptimizer:
-    """The ``optimized`` policy: one grid move per step, chosen by Eq. (13) or given."""
-
-    name = "optimized"
+class OneUav:
+    """A policy flying one UAV with the mission's sensor from ``position (3,)``."""
 
     def __init__(self, mission: Mission):
         self.m, self.sensor = mission, mission.sensor
@@ -108,6 +106,12 @@ class GridOptimizer:
     @property
     def uav(self) -> np.ndarray:
         return self.position
+
+
+class GridOptimizer(OneUav):
+    """The ``optimized`` policy: one grid move per step, chosen by Eq. (13) or given."""
+
+    name = "optimized"
 
     def moves(self) -> tuple[np.ndarray, np.ndarray]:
         """The candidate positions ``(C, 3)`` and which are admissible ``(C,)``."""

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..mission import Mission, MissionError
 from ..world import Region2D, World
-from .grid import UavConfig, uav_start
+from .grid import OneUav, UavConfig
 
 MANOEUVRES = ("zigzag", "square", "pentagon", "circle")
 
@@ -109,27 +109,19 @@ def manoeuvre_route(name: str, start: np.ndarray, cfg: ManoeuvreConfig, uav: Uav
     return Route(start, placed, cfg.step, h)
 
 
-class Manoeuvre:
+class Manoeuvre(OneUav):
     """The policy that flies one manoeuvre from its start (see module docstring); the
     UAV's own sensor."""
 
     def __init__(self, name: str, mission: Mission):
-        self.name, self.m, self.sensor = name, mission, mission.sensor
+        super().__init__(mission)
+        self.name = name
         self.route: Route | None = None
-        self.position = mission.uav.start.copy()
 
-    def reset(self, rng) -> None:
+    def reset(self, rng: np.random.Generator) -> None:
+        super().reset(rng)
         m = self.m
-        self.position = uav_start(rng, m.uav, m.world, m.path)
         self.route = manoeuvre_route(self.name, self.position, m.planner.manoeuvres, m.uav, m.world, m.path)
-
-    @property
-    def observers(self) -> np.ndarray:
-        return self.position[None, :]
-
-    @property
-    def uav(self) -> np.ndarray:
-        return self.position
 
     def act(self, t: int, belief, action: int | None = None):
         if action is not None:
