@@ -142,7 +142,19 @@ class _Context:
 
 
 class OuterApproximation:
-    """P1 compiled once; :meth:`solve` for each new start state and goal."""
+    """P1 compiled once; :meth:`solve` for each new start state and goal.
+
+    ``reference_plans`` (off): the plan returned is re-solved by Clarabel, the QP solver
+    before issue 17 (one more QP per plan, about 5 ms at T = 50, not counted in the
+    budget), for numbers close to those of before; the search and the bounds stay DAQP's
+    (the reported gap then includes Clarabel's error).
+    Off, a plan is DAQP's verified optimum, which differs from Clarabel's by Clarabel's
+    tolerance (objectives ~1e-8 relative; closed-loop summaries of
+    ``tests/test_reference.py`` up to 2e-7).  Exact agreement is out of reach either way:
+    where two face choices tie to ~1e-9, Clarabel's error decided which the search kept.
+    """
+
+    reference_plans = False
 
     def __init__(self, c: Compiled, geom: Geometry, reach: Reach, gap: float, bnb_nodes: int | None = None):
         self.geom, self.reach, self.gap = geom, reach, gap
@@ -185,17 +197,24 @@ class OuterApproximation:
             return Solution("infeasible", np.inf, np.inf, np.inf, 0, None,
                             "no plan meets the speed, force and area limits even without obstacles")
         if self.shape[1] == 0:  # no obstacle on the ground: P1 is the QP
+            relax = self._reference(lo, hi, relax)
             return Solution("optimal", relax.f, relax.f, 0.0, 0, relax)
         face_lo, face_hi = self.reach.face_bounds(x0, goal)
         stuck = stuck_pairs(face_hi, b)
         if not np.any((inside(relax.x[2:, :2], b) > 1e-7) & ~stuck):  # the obstacle-free optimum is clear
             y = choose_faces(relax.x[2:, :2], b, *prune(face_lo, face_hi, b, stuck))
-            return Solution("optimal", relax.f, relax.f, 0.0, 0, replace(relax, y=y))
+            plan = self._reference(lo, hi, replace(relax, y=y))
+            return Solution("optimal", plan.f, min(relax.f, plan.f), 0.0, 0, plan)
         hi[self.c.sum_rows] = np.where(stuck.reshape(-1), 4.0, 3.0)  # Eq. (8e) off for stuck pairs
         bounds = prune(face_lo, face_hi, b, stuck)
         ctx = _Context(lo, hi, b, stuck, relax, x0, goal, budget, [relax.s] + ([warm[1]] if warm is not None else []))
         best = self._upper_bound(ctx, warm, bounds)
         sol = self._loop(ctx, best)
+        if sol.plan is not None:
+            plan = self._reference(lo, hi, sol.plan)
+            lower = min(sol.lower_bound, plan.f)
+            sol = replace(sol, objective=plan.f, lower_bound=lower, gap=max(plan.f - lower, 0.0) / max(plan.f, 1.0),
+                          plan=plan)
         notes = [sol.message] if sol.message else []
         if shrink.any() and sol.plan is not None:
             notes.append(f"start near a wall: steps 2-{NEAR_WALL_STEPS + 1} keep only the clearance margin")
@@ -206,6 +225,11 @@ class OuterApproximation:
         if budget.capped:
             notes.append("stopped by the wall-clock cap, not the work budget: may differ on another machine")
         return replace(sol, message="; ".join(notes))
+
+    def _reference(self, lo, hi, plan: QpSolution) -> QpSolution:
+        """The plan returned: with :attr:`reference_plans`, Clarabel's solution of the QP
+        that gave it (:meth:`.qp.FixedFaceQP.reference`)."""
+        return self.qp.reference(lo, hi, plan) if self.reference_plans else plan
 
     def _offsets(self, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Face offsets ``b (T-1, n, 4)`` of every step, and the per-row relaxation.
@@ -383,7 +407,7 @@ class OuterApproximation:
             tried.append(y)
             ctx.points.append(z[self.c.term_cols])
             ctx.budget.qps -= 1
-            inc = self.qp.solve(ctx.lo, ctx.hi, y)
+            inc = self.qp.solve(ctx.lo, ctx.hi, y, bound=True)  # an infeasible one becomes a no-good cut
             if inc is None:
                 dead.append(y)
                 continue
@@ -422,7 +446,7 @@ class OuterApproximation:
             if solved >= limit or not ctx.budget.take():
                 return best, bound, False
             _, _, y = heapq.heappop(heap)
-            sol = self.qp.solve(ctx.lo, ctx.hi, y)
+            sol = self.qp.solve(ctx.lo, ctx.hi, y, bound=True)
             solved += 1
             if sol is None or sol.f >= cutoff:
                 continue
