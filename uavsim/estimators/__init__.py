@@ -2,6 +2,7 @@
 
 Self-contained: numpy and scipy only, never the simulator.  Bearings follow each
 paper's own convention inside its module (002: ``atan2(dy, dx)`` from +x); the batch
-core (``batch``) works from +x too, and 003's modules (``nrpso``, ``oh2021``) take
-bearings from north, clockwise, converting once at their edge.
+core (``batch``) works from +x too, as do 000's modules (``intelligence``,
+``oliva2021``), and 003's modules (``nrpso``, ``oh2021``) take bearings from north,
+clockwise, converting once at their edge.
 """
