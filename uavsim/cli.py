@@ -320,11 +320,16 @@ def cmd_tma_reproduce(args: argparse.Namespace) -> int:
 
     if args.runs is not None and args.runs < 2:
         raise UsageError("--runs must be at least 2")
+    for flag in OLIVA2021_FLAGS:
+        if getattr(args, flag) is not None and args.name != "oliva2021":
+            raise UsageError(f"--{flag} applies to oliva2021 only, not {args.name}")
     if args.name == "oh2021":
         return _reproduce_oh2021(args)
     for flag in OH2021_FLAGS:
         if getattr(args, flag) is not None:
             raise UsageError(f"--{flag} applies to oh2021 only, not {args.name}")
+    if args.name == "oliva2021":
+        return _reproduce_oliva2021(args)
     if args.name in LI2022:
         return _tma_reproduce_li2022(args)
     if args.sigma_scale is not None:
@@ -454,6 +459,29 @@ def _reproduce_oh2021(args: argparse.Namespace) -> int:
     return 0
 
 
+# --- tma reproduce oliva2021: 000's intelligence-aware MLE study (Tables 2-4) ---------------
+
+OLIVA2021_FLAGS = ("solver", "vary", "generations")
+
+
+def _reproduce_oliva2021(args: argparse.Namespace) -> int:
+    from .estimators import oliva2021
+    from .plots import oliva2021_plot
+
+    runs = args.runs or 100
+    _seed(args.seed)
+    if args.generations is not None and (args.generations < 1 or args.solver != "global"):
+        raise UsageError("--generations needs --solver global and a count of at least 1")
+    out = _output_folder(args.out or "runs/oliva2021", files=("result.json", "tracks.png"))
+    extra = {} if args.generations is None else {"maxiter": args.generations}
+    result = oliva2021.study(runs, args.seed, args.solver or "local", vary=args.vary or "noise", **extra)
+    write_json(out / "result.json", result)
+    oliva2021_plot(result, out / "tracks.png")
+    print(oliva2021.table(result))
+    print(f"wrote {out / 'result.json'} and {out / 'tracks.png'}")
+    return 0
+
+
 def _campaign_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("mission")
     p.add_argument("--trials", type=int, help="Monte-Carlo trials (default: the mission's)")
@@ -509,9 +537,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     tma = sub.add_parser("tma", help="the estimator library (papers 000-003)").add_subparsers(dest="tma", required=True)
     p = tma.add_parser("reproduce", help="a paper's simulation study; writes DIR/result.json and figures")
-    p.add_argument("name", choices=(*SCENARIOS, *LI2022, "oh2021"))
+    p.add_argument("name", choices=(*SCENARIOS, *LI2022, "oh2021", "oliva2021"))
     p.add_argument("--runs", type=int, help="Monte-Carlo runs (default: the paper's; 300 huang2021, 1000 li2022 "
-                   "and oh2021)")
+                   "and oh2021, 100 oliva2021)")
     p.add_argument("--seed", type=int, default=2021, help="run r uses SeedSequence(seed).spawn(runs)[r]")
     p.add_argument("--out", help="output folder (default runs/<name>)")
     p.add_argument("--sigma-scale", metavar="RHO[,RHO...]",
@@ -521,6 +549,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scans", help="oh2021: scan counts K of the 0.5 deg sweep (default 100,200,...,600)")
     p.add_argument("--methods", help="oh2021: from nr,pso,nrpso (default) and pso1500 (Fig. 6)")
     p.add_argument("--workers", type=int, help="oh2021: processes over the grid's cells (default: all cores)")
+    p.add_argument("--solver", choices=("local", "global"),
+                   help="oliva2021: local (default; Levenberg-Marquardt, SLSQP with constraints) or global "
+                   "(differential evolution, then the local solver)")
+    p.add_argument("--vary", choices=("noise", "start"),
+                   help="oliva2021: a new noise draw per run (default) or one draw and a new start per run "
+                   "(000's '100 instances with random initial choice')")
+    p.add_argument("--generations", type=int, help="oliva2021 --solver global: differential evolution's "
+                   "generations of 90 members (default 300, about 27 000 evaluations; 000's MIDACO: 1e6)")
     p.set_defaults(func=cmd_tma_reproduce)
 
     world = sub.add_parser("world", help="worlds and missions").add_subparsers(dest="world", required=True)

@@ -197,3 +197,42 @@ def oh2021_plots(result: dict, out: Path) -> list[Path]:
         plt.close(fig)
         written.append(path)
     return written
+
+
+def oliva2021_plot(result: dict, path: Path, tracks: int = 20) -> None:
+    """``uavsim tma reproduce oliva2021``: one panel per scenario (cf. 000 Figs. 2, 4-9): the
+    inside discs (solid) and the outside disc (dotted), the ownship's track, the true
+    target track and the estimated tracks of the first ``tracks`` runs and of the mean
+    estimate (dashed)."""
+    t = np.asarray(result["times"])
+    basis = np.stack([np.ones_like(t), t, t**2 / 2], -1)  # p(t) = x0 + v t + a t^2 / 2
+
+    def track(theta):
+        theta = np.asarray(theta, float).reshape(-1, 3, 2)  # (N, order, xy)
+        return np.einsum("km,nma->nka", basis, theta)
+
+    names = list(result["scenarios"])
+    fig, axes = plt.subplots(1 + (len(names) > 2), min(len(names), 2), figsize=(11, 5 + 5 * (len(names) > 2)),
+                             dpi=110, squeeze=False)
+    ring = np.linspace(0, 2 * np.pi, 200)
+    for ax, name in zip(axes.ravel(), names):
+        row = result["scenarios"][name]
+        for (cx, cy, r), style in [(d, "-") for d in result["inside"]] + [(d, ":") for d in result["outside"]]:
+            ax.plot(cx + r * np.cos(ring), cy + r * np.sin(ring), style, color="0.3", lw=1)
+        for est in track(row["theta"][:tracks]):
+            ax.plot(est[:, 0], est[:, 1], color="c", lw=0.5, alpha=0.6)
+        mean = track(row["mean_theta"])[0]
+        ax.plot(mean[:, 0], mean[:, 1], "b--", lw=1.5, label="mean estimate")
+        truth = track(result["truth"])[0]
+        ax.plot(truth[:, 0], truth[:, 1], "r", lw=2, label="target")
+        own = np.asarray(result["ownship"][name])
+        ax.plot(own[:, 0], own[:, 1], "k", lw=1, label="ownship")
+        ax.set(title=f"{name}: gamma {row['gamma']:g} rad", xlabel="x (m)", ylabel="y (m)", aspect="equal",
+               xlim=(-5e4, 1.3e5), ylim=(-2e4, 1.3e5))
+        ax.grid(alpha=0.3)
+    axes.ravel()[0].legend(loc="lower right", fontsize=8)
+    for ax in axes.ravel()[len(names):]:
+        ax.axis("off")
+    fig.suptitle(f"oliva2021 (cf. 000 Figs. 2, 4-9): {result['runs']} runs, solver {result['solver']}; "
+                 f"cyan: the first {tracks} estimated tracks")
+    _save(fig, path)
