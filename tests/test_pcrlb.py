@@ -210,3 +210,27 @@ def test_module_stays_below_the_loop():
     code = "import sys, uavsim.pcrlb; print(sorted(m for m in sys.modules if m.startswith('uavsim')))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert not {"uavsim.sim", "uavsim.campaign", "uavsim.config", "uavsim.belief"} & set(ast.literal_eval(out))
+
+
+def test_campaign_summaries_carry_the_bound_of_their_trials(tmp_path):
+    """A campaign's ``pcrlb_pos`` is the bound of its own recorded truth and sensor path
+    (trial files hold both), and the same trials seen by a UAV have a lower bound at every
+    step than with no sensor: the planned truth does not depend on the sensor (common
+    random numbers), so the UAV only adds information ``J_Z >= 0``."""
+    from dataclasses import replace
+
+    from uavsim.campaign import load_trials, run_campaign
+    from uavsim.config import load_mission
+
+    from .conftest import ROOT
+
+    m = replace(load_mission(ROOT / "missions" / "paper.toml"), trials=2, steps=6)
+    s = {p: run_campaign(m, p, out=tmp_path / p, workers=1) for p in ("optimized", "baseline")}
+    trials = load_trials(tmp_path / "optimized" / "trials", range(2))
+    again = pcrlb_for_trials(np.stack([trials[k].truth for k in range(2)]),
+                             np.stack([trials[k].observers for k in range(2)]), m.dynamics,
+                             np.array([t.cov0 for t in m.targets]), m.sensor)
+    np.testing.assert_allclose(s["optimized"]["pcrlb_pos"], again.pos, rtol=1e-12)
+    assert trials[0].observers.shape == (6, 1, 3)
+    assert np.all(np.array(s["optimized"]["pcrlb_pos_per_target"]) < np.array(s["baseline"]["pcrlb_pos_per_target"]))
+    assert s["optimized"]["pcrlb_q2"] == pytest.approx(information_reduction_factor(m.sensor.sigma, 0.95, 1.0))

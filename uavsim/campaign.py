@@ -16,7 +16,9 @@
   a file, after checking ``DIR/campaign.json`` describes the same campaign.
 * **Metrics** (:mod:`.metrics`): the RMSE of Sec. VI-B per step and target, the
   per-trial mean squared errors (for paired statistics), the average NEES of the position
-  (x, y) and of the full state with their 95% chi-square bands.
+  (x, y) and of the full state with their 95% chi-square bands; the posterior Cramer-Rao
+  bound of the position along the flown paths (:func:`.pcrlb.pcrlb_for_trials`: the
+  expectation over the campaign's trials), comparable with the RMSE.
 * **The no-information baseline.** The ``baseline`` planner runs the same trials with no
   sensor (its filter only predicts).  It does not depend on the sensor, the UAV or the
   planner settings, so its campaign fingerprint leaves them out: one baseline serves every
@@ -42,10 +44,11 @@ from . import metrics
 from .files import write_atomic
 from .guidance import Guidance
 from .mission import Mission
+from .pcrlb import pcrlb_for_trials
 from .sim import STAGES, Simulation
 from .uav import BASELINE, make_policy
 
-FORMAT = 2  # trial-file layout; a folder written in another layout is not resumed
+FORMAT = 3  # trial-file layout; a folder written in another layout is not resumed
 
 
 class CampaignError(Exception):
@@ -56,7 +59,8 @@ class CampaignError(Exception):
 class TrialResult:
     """One trial's record: squared (x, y) errors ``(steps, M)``, covariance traces
     ``(steps, M)``, NEES of the position and of the state ``(steps, M)``, stage seconds
-    ``(steps, len(STAGES))``, guidance statuses, events."""
+    ``(steps, len(STAGES))``, guidance statuses, events, and for the PCRLB the true states
+    ``(steps, M, 6)`` and sensor positions ``(steps, S, 3)``."""
 
     index: int
     err2: np.ndarray
@@ -66,6 +70,8 @@ class TrialResult:
     seconds: np.ndarray
     statuses: dict[str, int]
     events: tuple[str, ...]
+    truth: np.ndarray
+    observers: np.ndarray
 
 
 def trial_seeds(seed: int, trials: int) -> list[np.random.SeedSequence]:
@@ -82,7 +88,7 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
         info = sim.reset(seed)
         if on_step:
             on_step(info)
-        err2, trace, nees_pos, nees_state, secs, statuses, events = [], [], [], [], [], {}, []
+        err2, trace, nees_pos, nees_state, secs, statuses, events, truth, observers = [], [], [], [], [], {}, [], [], []
         for _ in range(mission.steps):
             info = sim.step()
             if on_step:
@@ -92,11 +98,13 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
             nees_pos.append(metrics.state_nees(info.mean, info.cov, info.truth, metrics.POS))
             nees_state.append(metrics.state_nees(info.mean, info.cov, info.truth, metrics.STATE))
             secs.append([info.seconds[k] for k in STAGES])
+            truth.append(info.truth)
+            observers.append(info.observers)
             for p in info.plans:
                 statuses[p.status] = statuses.get(p.status, 0) + 1
             events += [f"step {info.t}: {e}" for e in info.events if not e.startswith("resampled")]
     return TrialResult(index, np.array(err2), np.array(trace), np.array(nees_pos), np.array(nees_state),
-                       np.array(secs), statuses, tuple(events))
+                       np.array(secs), statuses, tuple(events), np.stack(truth), np.stack(observers))
 
 
 _GUIDANCE: dict[str, Guidance] = {}  # per worker process: build each mission's models once
@@ -128,8 +136,9 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
 
 def save_trial(folder: Path, r: TrialResult) -> None:
     buf = io.BytesIO()
+    meta = np.array(json.dumps({"statuses": r.statuses, "events": list(r.events)}))
     np.savez(buf, index=r.index, err2=r.err2, trace=r.trace, nees_pos=r.nees_pos, nees_state=r.nees_state,
-             seconds=r.seconds, meta=np.array(json.dumps({"statuses": r.statuses, "events": list(r.events)})))
+             seconds=r.seconds, truth=r.truth, observers=r.observers, meta=meta)
     write_atomic(folder / f"trial-{r.index:05d}.npz", buf.getvalue())
 
 
@@ -148,7 +157,8 @@ def load_trials(folder: Path, indices: range) -> dict[int, TrialResult]:
                 with np.load(path) as z:
                     meta = json.loads(str(z["meta"]))
                     out[k] = TrialResult(int(z["index"]), z["err2"], z["trace"], z["nees_pos"], z["nees_state"],
-                                         z["seconds"], meta["statuses"], tuple(meta["events"]))
+                                         z["seconds"], meta["statuses"], tuple(meta["events"]), z["truth"],
+                                         z["observers"])
             except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
                 raise CampaignError(f"{path}: not a readable trial file ({exc}); delete it to run "
                                     "that trial again") from None
@@ -290,7 +300,8 @@ def _recorded_trial(mission, planner, seeds, record) -> TrialResult:
 
 def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: float) -> dict:
     """The campaign summary (JSON-ready): RMSE per step and target, per-trial mean squared
-    errors, NEES consistency, timing, statuses."""
+    errors, NEES consistency, the PCRLB of the flown paths (:mod:`.pcrlb`), timing,
+    statuses."""
     results = sorted(results, key=lambda r: r.index)
     err2 = np.stack([r.err2 for r in results])  # (trials, steps, M)
     per_target = metrics.rmse_per_target(err2)  # (M, steps)
@@ -301,6 +312,8 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         for k, v in r.statuses.items():
             statuses[k] = statuses.get(k, 0) + v
     sensor = make_policy(planner, mission).sensor  # the fixed sensors carry their own
+    bound = pcrlb_for_trials(np.stack([r.truth for r in results]), np.stack([r.observers for r in results]),
+                             mission.dynamics, np.array([t.cov0 for t in mission.targets]), sensor or mission.sensor)
     return {
         "mission": str(mission.path), "planner": planner, "trials": len(results), "steps": mission.steps,
         "seed": mission.seed, "truth": mission.truth,
@@ -311,6 +324,8 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "rmse": rmse.tolist(), "rmse_per_target": per_target.tolist(), "time_avg_rmse": float(rmse.mean()),
         "time_avg_rmse_per_target": per_target.mean(axis=1).tolist(),
         "trial_mse": err2.mean(axis=(1, 2)).tolist(),
+        "pcrlb_pos": bound.pos.tolist(), "pcrlb_pos_per_target": bound.pos_per_target.tolist(),
+        "time_avg_pcrlb": float(bound.pos.mean()), "pcrlb_q2": bound.q2,
         "mean_trace": np.stack([r.trace for r in results]).mean(axis=0).T.tolist(),
         "nees": {"pos": metrics.consistency(np.stack([r.nees_pos for r in results]), len(metrics.POS)),
                  "state": metrics.consistency(np.stack([r.nees_state for r in results]), len(metrics.STATE))},

@@ -26,14 +26,19 @@ def _title(summaries: dict[str, dict]) -> str:
 
 
 def rmse_plot(summaries: dict[str, dict], path: Path) -> None:
-    """Average position RMSE per time step for each planner (004 Fig. 2c / 3e), and the
+    """Average position RMSE per time step for each planner (004 Fig. 2c / 3e), its PCRLB
+    (the floor of any estimator along the same paths) dotted in the same colour, and the
     no-information baseline of the same trials as a dashed black line (once per distinct
     baseline)."""
     fig, ax = plt.subplots(figsize=(7, 4), dpi=120)
     drawn = set()
     for name, s in summaries.items():
         ratio = f", {s['baseline']['ratio']:.2f} x no info" if "baseline" in s else ""
-        ax.plot(range(1, len(s["rmse"]) + 1), s["rmse"], label=f"{name} ({s['time_avg_rmse']:.1f} m{ratio})")
+        steps = range(1, len(s["rmse"]) + 1)
+        (line,) = ax.plot(steps, s["rmse"], label=f"{name} ({s['time_avg_rmse']:.1f} m{ratio})")
+        if "pcrlb_pos" in s:
+            ax.plot(steps, s["pcrlb_pos"], ":", color=line.get_color(), lw=1,
+                    label=f"{name} PCRLB ({s['time_avg_pcrlb']:.1f} m)")
         b = s.get("baseline")
         if b is not None and tuple(b["rmse"]) not in drawn:
             drawn.add(tuple(b["rmse"]))

@@ -11,6 +11,8 @@ Entities (M targets named as in the mission)::
     uav/{position, path, candidates}                     candidates coloured by summed trace
     bearings/{detections, false_alarms}                  rays from the sensor(s)
     metrics/{error, trace, nees}/<name>, metrics/error/RMSE    scalars
+    metrics/error/PCRLB                                  the PCRLB of the RMSE along this trial's truth
+                                                         and path (conditional on them; :mod:`.pcrlb`)
     metrics/nees/{mean, band_lo, band_hi}                position NEES averaged over the targets and
                                                          its 95% chi-square band (this trial)
     log                                                  text: fallbacks, degenerate updates, resampling
@@ -31,7 +33,9 @@ from scipy.spatial.transform import Rotation
 
 from . import metrics
 from .mission import Mission
+from .pcrlb import POS, expected_information, information_reduction_factor, pcrlb_step
 from .sim import StepInfo
+from .uav import make_policy
 
 PALETTE = np.array([[230, 60, 60], [60, 110, 230], [150, 70, 200], [40, 170, 80], [230, 150, 30], [30, 170, 190]])
 RAY_PAST = 1.15  # a bearing ray ends 15% beyond the estimated range of its channel's target
@@ -78,6 +82,10 @@ class Recorder:
         self.truth_path: list[np.ndarray] = []
         self.est_path: list[np.ndarray] = []
         self.uav_path: list[np.ndarray] = []
+        sensor = make_policy(planner, mission).sensor or mission.sensor  # the fixed sensors carry their own
+        self.sigma = sensor.sigma
+        self.q2 = information_reduction_factor(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
+        self.bound = np.array([t.cov0 for t in mission.targets])  # (M, 6, 6) PCRLB, from the prior
         self._static()
 
     # ------------------------------------------------------------------ static scene
@@ -105,6 +113,7 @@ class Recorder:
             for kind in ("error", "trace", "nees"):
                 rec.log(f"metrics/{kind}/{name}", rr.SeriesLines(colors=[c], names=[name]), static=True)
         rec.log("metrics/error/RMSE", rr.SeriesLines(colors=[[255, 255, 255]], names=["RMSE"]), static=True)
+        rec.log("metrics/error/PCRLB", rr.SeriesLines(colors=[[128, 128, 128]], names=["PCRLB"]), static=True)
         rec.log("metrics/nees/mean", rr.SeriesLines(colors=[[255, 255, 255]], names=["mean over targets"]),
                 static=True)
         for bound in ("band_lo", "band_hi"):
@@ -131,6 +140,12 @@ class Recorder:
             rec.log(f"metrics/error/{name}", rr.Scalars(e))
             rec.log(f"metrics/trace/{name}", rr.Scalars(tr))
         rec.log("metrics/error/RMSE", rr.Scalars(np.sqrt(np.mean(err**2))))  # over the targets, this trial
+        if info.t > 0:
+            d = self.m.dynamics
+            w = expected_information(info.truth[None, None], info.observers[None, None], self.sigma, self.q2)[0]
+            self.bound = pcrlb_step(self.bound, d.a, d.q, w)
+            var = np.trace(self.bound[:, POS, POS], axis1=1, axis2=2)  # (M,)
+            rec.log("metrics/error/PCRLB", rr.Scalars(np.sqrt(var.mean())))
         nees = metrics.state_nees(info.mean, info.cov, info.truth, metrics.POS)
         for name, value in zip(self.names, nees):
             rec.log(f"metrics/nees/{name}", rr.Scalars(value))
