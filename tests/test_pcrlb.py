@@ -21,9 +21,11 @@ from uavsim.belief.particle import log_likelihood
 from uavsim.pcrlb import (
     _q2_quadrature,
     bearing_gradients,
+    expected_information,
     information_reduction_factor,
     pcrlb,
     pcrlb_for_trials,
+    pcrlb_planned,
 )
 from uavsim.sensing import Sensor, bearing, observe, wrap_angle
 from uavsim.targets import Dynamics, transition_matrices
@@ -212,11 +214,32 @@ def test_module_stays_below_the_loop():
     assert not {"uavsim.sim", "uavsim.campaign", "uavsim.config", "uavsim.belief"} & set(ast.literal_eval(out))
 
 
+def test_planned_bound_of_a_free_track_is_the_noise_free_recursion():
+    """A truth moving freely, ``x_k = A^k x_0`` (sensitivity ``G_k = A^k``), is the model
+    of the recursion with ``Q = 0``: the Van Trees bound on ``g_k(x_0)`` must equal it
+    (two sensors, three trials, 4 steps)."""
+    rng = np.random.default_rng(3)
+    steps, trials = 4, 3
+    truth = np.concatenate([rng.uniform(0, 1000, (trials, steps, 2, 2)), np.zeros((trials, steps, 2, 4))], -1)
+    obs = np.concatenate([rng.uniform(0, 1000, (trials, steps, 2, 2)), np.full((trials, steps, 2, 1), 40.0)], -1)
+    g = np.broadcast_to(np.stack([np.linalg.matrix_power(A4, k + 1) for k in range(steps)])[None, :, None],
+                        (trials, steps, 2, 4, 4))
+    cov0 = np.zeros((2, 6, 6))
+    cov0[np.ix_([0, 1], H4, H4)] = P04
+    sensor = Sensor(1 * DEG, 0.9, 2.0)
+    b = pcrlb_planned(g, truth, obs, cov0, sensor)
+    q2 = information_reduction_factor(sensor.sigma, 0.9, 2.0)
+    ref = pcrlb(np.broadcast_to(P04, (2, 4, 4)), A4, np.zeros((4, 4)),
+                expected_information(truth, obs, sensor.sigma, q2))
+    np.testing.assert_allclose(b.cov, ref, rtol=1e-9, atol=1e-9)
+
+
 def test_campaign_summaries_carry_the_bound_of_their_trials(tmp_path):
-    """A campaign's ``pcrlb_pos`` is the bound of its own recorded truth and sensor path
-    (trial files hold both), and the same trials seen by a UAV have a lower bound at every
-    step than with no sensor: the planned truth does not depend on the sensor (common
-    random numbers), so the UAV only adds information ``J_Z >= 0``."""
+    """A campaign's ``pcrlb_pos`` is the bound of its own recorded truth, sensitivity and
+    sensor path (trial files hold them), and the same trials seen by a UAV have a lower
+    bound at every step than with no sensor: the planned truth does not depend on the
+    sensor (common random numbers), so the UAV only adds information.  A stochastic truth
+    gets no bound (see uavsim/pcrlb.py, "Which truth it bounds")."""
     from dataclasses import replace
 
     from uavsim.campaign import load_trials, run_campaign
@@ -226,11 +249,37 @@ def test_campaign_summaries_carry_the_bound_of_their_trials(tmp_path):
 
     m = replace(load_mission(ROOT / "missions" / "paper.toml"), trials=2, steps=6)
     s = {p: run_campaign(m, p, out=tmp_path / p, workers=1) for p in ("optimized", "baseline")}
-    trials = load_trials(tmp_path / "optimized" / "trials", range(2))
-    again = pcrlb_for_trials(np.stack([trials[k].truth for k in range(2)]),
-                             np.stack([trials[k].observers for k in range(2)]), m.dynamics,
-                             np.array([t.cov0 for t in m.targets]), m.sensor)
+    t = load_trials(tmp_path / "optimized" / "trials", range(2))
+    again = pcrlb_planned(np.stack([t[k].sensitivity for k in range(2)]), np.stack([t[k].truth for k in range(2)]),
+                          np.stack([t[k].observers for k in range(2)]), np.array([x.cov0 for x in m.targets]),
+                          m.sensor)
     np.testing.assert_allclose(s["optimized"]["pcrlb_pos"], again.pos, rtol=1e-12)
-    assert trials[0].observers.shape == (6, 1, 3)
+    assert t[0].observers.shape == (6, 1, 3) and t[0].sensitivity.shape == (6, 4, 4, 4)
     assert np.all(np.array(s["optimized"]["pcrlb_pos_per_target"]) < np.array(s["baseline"]["pcrlb_pos_per_target"]))
     assert s["optimized"]["pcrlb_q2"] == pytest.approx(information_reduction_factor(m.sensor.sigma, 0.95, 1.0))
+    stochastic = run_campaign(replace(m, truth="stochastic", steps=2), "optimized", workers=1)
+    assert stochastic["pcrlb_pos"] is None
+
+
+def test_planned_truth_sensitivity_matches_a_moved_start():
+    """``Truth.sensitivity`` predicts where the planned truth goes from a start moved by
+    0.5 m / 0.05 m/s: P1's optimum is affine in the start while its active set stays."""
+    from uavsim.config import load_mission
+    from uavsim.guidance import Guidance
+    from uavsim.truth import Truth
+
+    from .conftest import ROOT
+
+    m = load_mission(ROOT / "missions" / "paper.toml")
+    guidance = Guidance(m.world, m.dynamics, m.guidance)
+    truth = Truth(m, guidance, np.random.default_rng(5), np.random.default_rng(6))
+    x0, plans = truth.state.copy(), truth.plans
+    for t in range(1, 11):
+        truth.move(t - 1, None)
+    step = np.array([0.5, -0.5, 0.05, -0.05])
+    for j, plan in enumerate(plans):
+        x = x0[j].copy()
+        x[[0, 1, 3, 4]] += step
+        moved = guidance.plan(x, np.zeros((6, 6)), m.goals[j])
+        predicted = plan.means[9, [0, 1, 3, 4]] + truth.sensitivity[j] @ step
+        np.testing.assert_allclose(moved.means[9, [0, 1, 3, 4]], predicted, atol=1e-6)

@@ -17,8 +17,8 @@
 * **Metrics** (:mod:`.metrics`): the RMSE of Sec. VI-B per step and target, the
   per-trial mean squared errors (for paired statistics), the average NEES of the position
   (x, y) and of the full state with their 95% chi-square bands; the posterior Cramer-Rao
-  bound of the position along the flown paths (:func:`.pcrlb.pcrlb_for_trials`: the
-  expectation over the campaign's trials), comparable with the RMSE.
+  bound of the position along the flown paths (:func:`accuracy_floor`: the expectation
+  over the campaign's trials), comparable with the RMSE.
 * **The no-information baseline.** The ``baseline`` planner runs the same trials with no
   sensor (its filter only predicts).  It does not depend on the sensor, the UAV or the
   planner settings, so its campaign fingerprint leaves them out: one baseline serves every
@@ -44,11 +44,11 @@ from . import metrics
 from .files import write_atomic
 from .guidance import Guidance
 from .mission import Mission
-from .pcrlb import pcrlb_for_trials
+from .pcrlb import Bound, pcrlb_planned
 from .sim import STAGES, Simulation
 from .uav import BASELINE, make_policy
 
-FORMAT = 3  # trial-file layout; a folder written in another layout is not resumed
+FORMAT = 4  # trial-file layout; a folder written in another layout is not resumed
 
 
 class CampaignError(Exception):
@@ -60,7 +60,8 @@ class TrialResult:
     """One trial's record: squared (x, y) errors ``(steps, M)``, covariance traces
     ``(steps, M)``, NEES of the position and of the state ``(steps, M)``, stage seconds
     ``(steps, len(STAGES))``, guidance statuses, events, and for the PCRLB the true states
-    ``(steps, M, 6)`` and sensor positions ``(steps, S, 3)``."""
+    ``(steps, M, 6)``, sensor positions ``(steps, S, 3)`` and the planned truth's
+    sensitivity to its start ``(steps, M, 4, 4)`` (``(0,)`` for a stochastic truth)."""
 
     index: int
     err2: np.ndarray
@@ -72,6 +73,7 @@ class TrialResult:
     events: tuple[str, ...]
     truth: np.ndarray
     observers: np.ndarray
+    sensitivity: np.ndarray
 
 
 def trial_seeds(seed: int, trials: int) -> list[np.random.SeedSequence]:
@@ -88,7 +90,8 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
         info = sim.reset(seed)
         if on_step:
             on_step(info)
-        err2, trace, nees_pos, nees_state, secs, statuses, events, truth, observers = [], [], [], [], [], {}, [], [], []
+        err2, trace, nees_pos, nees_state, secs, statuses, events, truth, observers, sens = ([], [], [], [], [], {},
+                                                                                            [], [], [], [])
         for _ in range(mission.steps):
             info = sim.step()
             if on_step:
@@ -100,11 +103,14 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
             secs.append([info.seconds[k] for k in STAGES])
             truth.append(info.truth)
             observers.append(info.observers)
+            if info.sensitivity is not None:
+                sens.append(info.sensitivity)
             for p in info.plans:
                 statuses[p.status] = statuses.get(p.status, 0) + 1
             events += [f"step {info.t}: {e}" for e in info.events if not e.startswith("resampled")]
     return TrialResult(index, np.array(err2), np.array(trace), np.array(nees_pos), np.array(nees_state),
-                       np.array(secs), statuses, tuple(events), np.stack(truth), np.stack(observers))
+                       np.array(secs), statuses, tuple(events), np.stack(truth), np.stack(observers),
+                       np.array(sens))
 
 
 _GUIDANCE: dict[str, Guidance] = {}  # per worker process: build each mission's models once
@@ -138,7 +144,8 @@ def save_trial(folder: Path, r: TrialResult) -> None:
     buf = io.BytesIO()
     meta = np.array(json.dumps({"statuses": r.statuses, "events": list(r.events)}))
     np.savez(buf, index=r.index, err2=r.err2, trace=r.trace, nees_pos=r.nees_pos, nees_state=r.nees_state,
-             seconds=r.seconds, truth=r.truth, observers=r.observers, meta=meta)
+             seconds=r.seconds, truth=r.truth, observers=r.observers,
+             sensitivity=r.sensitivity, meta=meta)
     write_atomic(folder / f"trial-{r.index:05d}.npz", buf.getvalue())
 
 
@@ -158,7 +165,7 @@ def load_trials(folder: Path, indices: range) -> dict[int, TrialResult]:
                     meta = json.loads(str(z["meta"]))
                     out[k] = TrialResult(int(z["index"]), z["err2"], z["trace"], z["nees_pos"], z["nees_state"],
                                          z["seconds"], meta["statuses"], tuple(meta["events"]), z["truth"],
-                                         z["observers"])
+                                         z["observers"], z["sensitivity"])
             except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
                 raise CampaignError(f"{path}: not a readable trial file ({exc}); delete it to run "
                                     "that trial again") from None
@@ -312,8 +319,7 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         for k, v in r.statuses.items():
             statuses[k] = statuses.get(k, 0) + v
     sensor = make_policy(planner, mission).sensor  # the fixed sensors carry their own
-    bound = pcrlb_for_trials(np.stack([r.truth for r in results]), np.stack([r.observers for r in results]),
-                             mission.dynamics, np.array([t.cov0 for t in mission.targets]), sensor or mission.sensor)
+    bound = accuracy_floor(mission, sensor or mission.sensor, results)
     return {
         "mission": str(mission.path), "planner": planner, "trials": len(results), "steps": mission.steps,
         "seed": mission.seed, "truth": mission.truth,
@@ -324,8 +330,10 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "rmse": rmse.tolist(), "rmse_per_target": per_target.tolist(), "time_avg_rmse": float(rmse.mean()),
         "time_avg_rmse_per_target": per_target.mean(axis=1).tolist(),
         "trial_mse": err2.mean(axis=(1, 2)).tolist(),
-        "pcrlb_pos": bound.pos.tolist(), "pcrlb_pos_per_target": bound.pos_per_target.tolist(),
-        "time_avg_pcrlb": float(bound.pos.mean()), "pcrlb_q2": bound.q2,
+        "pcrlb_pos": None if bound is None else bound.pos.tolist(),
+        "pcrlb_pos_per_target": None if bound is None else bound.pos_per_target.tolist(),
+        "time_avg_pcrlb": None if bound is None else float(bound.pos.mean()),
+        "pcrlb_q2": None if bound is None else bound.q2,
         "mean_trace": np.stack([r.trace for r in results]).mean(axis=0).T.tolist(),
         "nees": {"pos": metrics.consistency(np.stack([r.nees_pos for r in results]), len(metrics.POS)),
                  "state": metrics.consistency(np.stack([r.nees_state for r in results]), len(metrics.STATE))},
@@ -334,6 +342,15 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "timing": {k: float(np.median(secs[:, i])) for i, k in enumerate(STAGES)},
         "wall_seconds": wall,
     }
+
+
+def accuracy_floor(mission: Mission, sensor, results: list[TrialResult]) -> Bound | None:
+    """The PCRLB of the campaign's trials (:func:`.pcrlb.pcrlb_planned`), or None for a
+    stochastic truth, whose bound is not built (see :mod:`.pcrlb`)."""
+    if mission.truth != "planned":
+        return None
+    return pcrlb_planned(np.stack([r.sensitivity for r in results]), np.stack([r.truth for r in results]),
+                         np.stack([r.observers for r in results]), np.array([t.cov0 for t in mission.targets]), sensor)
 
 
 def with_baseline(summary: dict, base: dict) -> dict:

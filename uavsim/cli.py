@@ -195,8 +195,9 @@ def _print_summary(s: dict) -> None:
     for name, per in zip(s["targets"], s["rmse_per_target"]):
         print(f"  {name:<8}{np.mean(per):>17.2f}{per[-1]:>14.2f}")
     print(f"  {'all':<8}{s['time_avg_rmse']:>17.2f}{s['rmse'][-1]:>14.2f}")
-    print(f"  {'PCRLB':<8}{s['time_avg_pcrlb']:>17.2f}{s['pcrlb_pos'][-1]:>14.2f}   the model's floor on "
-          f"these paths (information reduction factor {s['pcrlb_q2']:.3f})")
+    if s["pcrlb_pos"] is not None:
+        print(f"  {'PCRLB':<8}{s['time_avg_pcrlb']:>17.2f}{s['pcrlb_pos'][-1]:>14.2f}   the floor of any estimator "
+              f"on these paths (information reduction factor {s['pcrlb_q2']:.3f})")
     if "baseline" in s:
         b = s["baseline"]
         print(f"  {'no info':<8}{b['time_avg_rmse']:>17.2f}{b['rmse'][-1]:>14.2f}   ratio {b['ratio']:.3f} "

@@ -86,13 +86,23 @@ z (as the paper's do) the (x, y) block equals that of the 4-D subsystem [x, y, v
 step k; its mean over targets is comparable with the ``rmse`` curve of a campaign summary
 (004 Sec. VI-B: per target ``sqrt(mean over trials |error|^2)``, averaged over targets).
 
-**Which truth it bounds.** The bound is that of the model it is given: A, Q and controls
-known to the estimator.  In ``truth = "stochastic"`` runs the truth moves by Eq. (1) with
-Q as the model says, except that its controls are a feedback of its own state (re-planned
-on the truth), which the model takes as known inputs.  In ``truth = "planned"`` runs the
-truth follows a noise-free plan: the mission's Q overstates its randomness, so the bound
-with that Q need not be a floor for those trials (benchmarks/pcrlb.py prints both); with
-``Q = 0`` it is the bound for a noise-free truth whose controls are known.
+**Which truth it bounds.** The recursion is the bound of the model it is given: A, Q and
+controls known to the estimator.  The simulator's truths are not that model: their
+controls are P1's answer to their own state, a feedback that pulls every start towards
+the goal.  Measured on the paper mission (20 trials, benchmarks/pcrlb.py): with no sensor
+and ``truth = "stochastic"`` the recursion with Q gives 71.7 m where the prediction's RMSE
+is 58.2 m, so it is no floor there.
+
+For the paper's ``truth = "planned"`` the exact bound is :func:`pcrlb_planned`: the true
+state is a deterministic function of the drawn start, ``x_k = g_k(x_0)``, with sensitivity
+``G_k = d g_k / d x_0`` (:attr:`uavsim.truth.Truth.sensitivity`).  Every scan's score is
+``G_j^T`` times the scan's score in ``x_j``, so the Bayesian information on ``x_0`` from
+scans 1..k is ``J_k = Sigma_0^-1 + sum_j E[G_j^T E^T W_j E G_j]``, and the Van Trees
+bound for the function ``g_k`` (Van Trees & Bell 2007, the bound for a function of the
+parameter) is ``P_k >= E[G_k] J_k^-1 E[G_k]^T``, all on ``[x, y, vx, vy]`` and the
+expectations averaged over trials.  Campaigns report that bound for planned truths and
+none for stochastic ones (its recursion would need the Jacobian of the truth's feedback
+``A + B du/dx`` at every step; not built).
 """
 
 from __future__ import annotations
@@ -108,6 +118,8 @@ from .targets import Dynamics
 MAX_SIGMA = np.pi / 8  # rad: the wrapped tail 2 Phi(-pi / sigma) of the bearing noise is < 1e-15
 _SQRT_2PI = np.sqrt(2.0 * np.pi)
 POS = slice(0, 2)  # (x, y) in the state [x, y, z, vx, vy, vz]
+HORIZONTAL = [0, 1, 3, 4]  # [x, y, vx, vy] of that state: the planned truth's bound lives here
+HORIZONTAL_POS = slice(0, 2)  # (x, y) in [x, y, vx, vy]
 
 
 # --------------------------------------------------------------------------- the IRF
@@ -212,6 +224,22 @@ def bearing_gradients(targets: np.ndarray, observers: np.ndarray) -> np.ndarray:
     return np.stack([d[..., 1], -d[..., 0]], -1) / r2
 
 
+def scan_information(targets: np.ndarray, observers: np.ndarray, sigma: float, q2: float) -> np.ndarray:
+    """``J_Z = q2 / sigma^2 sum_s h_s^T h_s`` on (x, y) of one scan by every sensor.
+
+    Parameters
+    ----------
+    targets : (..., M, >=2) true positions; observers : (..., S, >=2) (leading dimensions
+    broadcast); sigma : bearing noise std (rad); q2 : the IRF of the sensor.
+
+    Returns
+    -------
+    (..., M, 2, 2).
+    """
+    h = bearing_gradients(targets, observers)  # (..., M, S, 2)
+    return (q2 / sigma**2) * np.einsum("...msi,...msj->...mij", h, h)
+
+
 def expected_information(targets: np.ndarray, observers: np.ndarray, sigma: float, q2: float) -> np.ndarray:
     """``E[J_Z]`` on (x, y): ``q2 / sigma^2 sum_s h_s^T h_s`` averaged over trials.
 
@@ -224,8 +252,7 @@ def expected_information(targets: np.ndarray, observers: np.ndarray, sigma: floa
     -------
     (T, M, 2, 2): summed over the S sensors (independent scans), averaged over trials.
     """
-    h = bearing_gradients(targets, observers)  # (trials, T, M, S, 2)
-    return (q2 / sigma**2) * np.einsum("ntmsi,ntmsj->tmij", h, h) / targets.shape[0]
+    return scan_information(targets, observers, sigma, q2).mean(axis=0)
 
 
 # --------------------------------------------------------------------------- the recursion
@@ -360,3 +387,43 @@ def pcrlb_for_trials(truth: np.ndarray, observers: np.ndarray, dynamics: Dynamic
     q2 = information_reduction_factor(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
     info = expected_information(truth, observers, sensor.sigma, q2)
     return Bound(cov=pcrlb(cov0, a, q, info), q2=q2, trials=truth.shape[0])
+
+
+def pcrlb_planned(sensitivity: np.ndarray, truth: np.ndarray, observers: np.ndarray, cov0: np.ndarray,
+                  sensor: Sensor) -> Bound:
+    """The bound for a truth that is a deterministic function of its start (module
+    docstring, "Which truth it bounds").
+
+    Parameters
+    ----------
+    sensitivity : (trials, T, M, 4, 4) or (T, M, 4, 4) ``d x_k / d x_0`` on ``[x, y, vx,
+    vy]`` at steps 1..T (``StepInfo.sensitivity``); truth : (trials, T, M, 6) or (T, M, 6)
+    true states; observers : (trials, T, S, 3) or (T, S, 3); cov0 : (M, 6, 6) priors
+    ``Sigma_0`` (their [x, y, vx, vy] block is used); sensor : the observers' sensor.
+
+    Returns
+    -------
+    Bound with ``cov (T, M, 4, 4)`` on ``[x, y, vx, vy]``.
+
+    References
+    ----------
+    004_22b452551a772073.txt Eq. (4), (10), Sec. VI-B (the noise-free truth); Van Trees &
+    Bell, Bayesian Bounds for Parameter Estimation and Nonlinear Filtering/Tracking, 2007.
+    """
+    truth, observers = _as_trials(truth, "truth", 2), _as_trials(observers, "observers", 2)
+    g = np.asarray(sensitivity, float)
+    g = g[None] if g.ndim == 4 else g
+    if g.shape != (*truth.shape[:3], 4, 4) or truth.shape[:2] != observers.shape[:2]:
+        raise ValueError(f"sensitivity {g.shape}, truth {truth.shape} and observers {observers.shape} do not "
+                         "match as (trials, T, M, 4, 4), (trials, T, M, 6), (trials, T, S, 3)")
+    if not np.all(np.isfinite(g)):
+        raise ValueError("sensitivity has non-finite entries")
+    cov0 = np.asarray(cov0, float)[:, HORIZONTAL][:, :, HORIZONTAL]  # (M, 4, 4)
+    q2 = information_reduction_factor(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
+    w = scan_information(truth, observers, sensor.sigma, q2)  # (trials, T, M, 2, 2)
+    gp = g[..., HORIZONTAL_POS, :]  # (trials, T, M, 2, 4): d position / d x_0
+    info = np.einsum("ntmia,ntmij,ntmjb->tmab", gp, w, gp) / len(g)  # E[G^T E^T W E G], (T, M, 4, 4)
+    j = np.linalg.inv(cov0) + np.cumsum(info, axis=0)
+    mean_g = g.mean(axis=0)  # (T, M, 4, 4)
+    cov = mean_g @ np.linalg.solve(j, np.swapaxes(mean_g, -1, -2))
+    return Bound(cov=0.5 * (cov + np.swapaxes(cov, -1, -2)), q2=q2, trials=len(g))

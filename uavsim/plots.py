@@ -36,7 +36,7 @@ def rmse_plot(summaries: dict[str, dict], path: Path) -> None:
         ratio = f", {s['baseline']['ratio']:.2f} x no info" if "baseline" in s else ""
         steps = range(1, len(s["rmse"]) + 1)
         (line,) = ax.plot(steps, s["rmse"], label=f"{name} ({s['time_avg_rmse']:.1f} m{ratio})")
-        if "pcrlb_pos" in s:
+        if s.get("pcrlb_pos") is not None:
             ax.plot(steps, s["pcrlb_pos"], ":", color=line.get_color(), lw=1,
                     label=f"{name} PCRLB ({s['time_avg_pcrlb']:.1f} m)")
         b = s.get("baseline")

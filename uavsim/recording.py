@@ -11,8 +11,9 @@ Entities (M targets named as in the mission)::
     uav/{position, path, candidates}                     candidates coloured by summed trace
     bearings/{detections, false_alarms}                  rays from the sensor(s)
     metrics/{error, trace, nees}/<name>, metrics/error/RMSE    scalars
-    metrics/error/PCRLB                                  the PCRLB of the RMSE along this trial's truth
-                                                         and path (conditional on them; :mod:`.pcrlb`)
+    metrics/error/PCRLB                                  planned truth: the PCRLB of the RMSE along this
+                                                         trial's truth and path (conditional on them;
+                                                         :func:`.pcrlb.pcrlb_planned` for one trial)
     metrics/nees/{mean, band_lo, band_hi}                position NEES averaged over the targets and
                                                          its 95% chi-square band (this trial)
     log                                                  text: fallbacks, degenerate updates, resampling
@@ -33,7 +34,7 @@ from scipy.spatial.transform import Rotation
 
 from . import metrics
 from .mission import Mission
-from .pcrlb import POS, expected_information, information_reduction_factor, pcrlb_step
+from .pcrlb import HORIZONTAL, HORIZONTAL_POS, information_reduction_factor, scan_information
 from .sim import StepInfo
 from .uav import make_policy
 
@@ -85,7 +86,8 @@ class Recorder:
         sensor = make_policy(planner, mission).sensor or mission.sensor  # the fixed sensors carry their own
         self.sigma = sensor.sigma
         self.q2 = information_reduction_factor(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
-        self.bound = np.array([t.cov0 for t in mission.targets])  # (M, 6, 6) PCRLB, from the prior
+        cov0 = np.array([t.cov0 for t in mission.targets])[:, HORIZONTAL][:, :, HORIZONTAL]
+        self.info = np.linalg.inv(cov0)  # (M, 4, 4) information on the true start (planned truth)
         self._static()
 
     # ------------------------------------------------------------------ static scene
@@ -140,11 +142,13 @@ class Recorder:
             rec.log(f"metrics/error/{name}", rr.Scalars(e))
             rec.log(f"metrics/trace/{name}", rr.Scalars(tr))
         rec.log("metrics/error/RMSE", rr.Scalars(np.sqrt(np.mean(err**2))))  # over the targets, this trial
-        if info.t > 0:
-            d = self.m.dynamics
-            w = expected_information(info.truth[None, None], info.observers[None, None], self.sigma, self.q2)[0]
-            self.bound = pcrlb_step(self.bound, d.a, d.q, w)
-            var = np.trace(self.bound[:, POS, POS], axis1=1, axis2=2)  # (M,)
+        if info.t > 0 and info.sensitivity is not None:
+            g = info.sensitivity  # (M, 4, 4)
+            gp = g[:, HORIZONTAL_POS, :]
+            w = scan_information(info.truth, info.observers, self.sigma, self.q2)  # (M, 2, 2)
+            self.info += np.swapaxes(gp, 1, 2) @ w @ gp
+            cov = g @ np.linalg.solve(self.info, np.swapaxes(g, 1, 2))
+            var = np.trace(cov[:, HORIZONTAL_POS, HORIZONTAL_POS], axis1=1, axis2=2)  # (M,)
             rec.log("metrics/error/PCRLB", rr.Scalars(np.sqrt(var.mean())))
         nees = metrics.state_nees(info.mean, info.cov, info.truth, metrics.POS)
         for name, value in zip(self.names, nees):

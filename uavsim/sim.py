@@ -51,6 +51,7 @@ class StepInfo:
     events: list[str] = field(default_factory=list)
     particles: np.ndarray | None = None  # (M, N, 6) posterior particles (a copy)
     uav: np.ndarray | None = None  # (3,) the UAV's position, None when no UAV flies
+    sensitivity: np.ndarray | None = None  # (M, 4, 4) d truth / d true start on [x, y, vx, vy] (planned truth)
 
 
 class Simulation:
@@ -131,7 +132,8 @@ class Simulation:
     def _info(self, scans, plans, moves, seconds, events) -> StepInfo:
         mean, cov = self.belief.moments()
         return StepInfo(self.t, self.truth.state.copy(), mean, cov, self.policy.observers, scans, plans, *moves,
-                        seconds, events, self.belief.samples(), self.policy.uav)
+                        seconds, events, self.belief.samples(), self.policy.uav,
+                        None if self.truth.sensitivity is None else self.truth.sensitivity.copy())
 
     def _replan(self, j: int, mean, cov, events: list[str]) -> Plan:
         plan = self.guidance.replan(mean, cov, self.m.goals[j], self.plans[j], self.t)

@@ -10,6 +10,13 @@ Each trial draws every target's true initial state from its prior ``N(mu_0, Sigm
 * ``stochastic``: re-planned from the true state every step, moving by Eq. (1) with
   process noise.
 
+A planned truth is a deterministic function of its drawn start, ``x_t = g_t(x_0)``.  Its
+sensitivity ``G_t = d x_t / d x_0`` on ``[x, y, vx, vy]`` (:attr:`Truth.sensitivity`) is
+what the accuracy floor of :mod:`.pcrlb` needs: P1's optimum is piecewise affine in the
+start (a QP for each face choice and active set), so a difference of ``DELTA`` along each
+component is exact unless the active set changes within it (checked: forward and
+backward differences must agree; on the paper mission they agree to 1e-8).
+
 The filter starts from the prior, never from the drawn truth.
 """
 
@@ -19,8 +26,10 @@ import numpy as np
 
 from .guidance import Guidance, Plan
 from .mission import Mission, MissionError
+from .pcrlb import HORIZONTAL
 
 START_DRAWS = 1000  # prior draws per target to find a free-space true start
+DELTA = np.array([1e-3, 1e-3, 1e-4, 1e-4])  # m, m, m/s, m/s: difference steps of the sensitivity
 
 
 class Truth:
@@ -34,7 +43,10 @@ class Truth:
         self.m, self.guidance, self.rng = mission, guidance, noise_rng
         self.state = self._start(start_rng)
         self.plans: list[Plan | None] = [None] * len(mission.targets)
+        self.sensitivity: np.ndarray | None = None  # (M, 4, 4) d x_t / d x_0 on HORIZONTAL (planned)
+        self.notes: list[str] = []
         if mission.truth == "planned":
+            self.sensitivity = np.broadcast_to(np.eye(4), (len(mission.targets), 4, 4)).copy()
             self.plans = self._noise_free_plans(0)
 
     def _start(self, rng: np.random.Generator) -> np.ndarray:
@@ -57,17 +69,39 @@ class Truth:
         return draws[np.argmax(free, axis=0), np.arange(len(means))]
 
     def _noise_free_plans(self, step: int) -> list[Plan]:
-        plans = []
+        plans, self._segment, self._segment_start = [], [], self.sensitivity.copy()
         for j, x in enumerate(self.state):
             plan = self.guidance.plan(x, np.zeros((6, 6)), self.m.goals[j], step=step)
             if not plan.ok:
                 raise MissionError(self.m.path, f"targets[{j}].position_m",
                                    f"no guidance plan from this start for the truth ({plan.status}: {plan.message})")
             plans.append(plan)
+            self._segment.append(self._plan_sensitivity(j, x, plan, step))
         return plans
+
+    def _plan_sensitivity(self, j: int, x: np.ndarray, plan: Plan, step: int) -> np.ndarray:
+        """``(T, 4, 4)``: d plan.means / d x on HORIZONTAL by central differences; where the
+        forward and backward differences disagree (a change of active constraints within
+        ``DELTA``), a note says so."""
+        cols = []
+        for i, d in zip(HORIZONTAL, DELTA):
+            e = np.zeros(6)
+            e[i] = d
+            ends = [self.guidance.plan(x + s * e, np.zeros((6, 6)), self.m.goals[j], step=step) for s in (1, -1)]
+            if not all(p.ok for p in ends):
+                raise MissionError(self.m.path, f"targets[{j}].position_m",
+                                   f"no guidance plan for the truth within {d:g} of its start")
+            fwd, bwd = ((s * (p.means[:, HORIZONTAL] - plan.means[:, HORIZONTAL]) / d) for s, p in zip((1, -1), ends))
+            if not np.allclose(fwd, bwd, rtol=1e-4, atol=1e-4):
+                self.notes.append(f"{self.m.targets[j].name} (truth): the plan's active constraints change within "
+                                  f"{d:g} of the start; its sensitivity is the central difference across the change")
+            cols.append((fwd + bwd) / 2)
+        return np.stack(cols, axis=-1)  # (T, 4, 4)
 
     def controls(self, t: int, events: list[str]) -> np.ndarray:
         """(M, 3) the forces the true targets apply at step t (module docstring)."""
+        events += self.notes
+        self.notes = []
         if self.m.truth == "planned":
             k = t % len(self.plans[0].controls)
             if t and k == 0:  # the mission outlasts the horizon: plan on from the end
@@ -83,6 +117,8 @@ class Truth:
     def move(self, t: int, controls: np.ndarray) -> None:
         """Eq. (1): exactly along the plan (``planned``), or with process noise."""
         if self.m.truth == "planned":
-            self.state = np.array([plan.means[t % len(plan.controls)] for plan in self.plans])
+            k = t % len(self.plans[0].controls)
+            self.state = np.array([plan.means[k] for plan in self.plans])
+            self.sensitivity = np.array([g[k] for g in self._segment]) @ self._segment_start
         else:
             self.state = self.m.dynamics.step(self.state, controls, rng=self.rng)
