@@ -1,41 +1,51 @@
 """The paper's qualitative findings (004 Sec. VI-B, Fig. 2c and 3e) on fixed seeds, with
 the truth drawn from the prior in every trial and the no-information baseline beside.
 
-Trial counts come from a 20-trial study per configuration (common random numbers, seed
-2023; ``python benchmarks/findings.py --trials 20`` repeats it): time-averaged RMSE, the
-paired t-statistic of the per-trial mean squared errors, the share of trials in which the
-ordering holds, and the share of 2000 bootstrap resamples of K = 6 trials in which it
-holds (the fast tests run 6 trials, the first six of the study):
+Evidence: ``python benchmarks/findings.py --trials N`` (common random numbers, seed 2023;
+measured with N = 100 for the paper mission's optimized UAV, the baseline, the optimized
+UAV in the sub-region and the four manoeuvres, N = 20 for the fixed sensors and
+Lambda = 8; code of commit cfdb4db: the later switch of the guidance's QP solver moves
+plans by ~1e-8, which the particle filters amplify, e.g. the optimized UAV's 100-trial RMSE
+is 18.14 m after against 18.23 m here).  Columns: time-averaged RMSE, the paired t of the per-trial mean squared
+errors, the share of trials in which the ordering holds, and the share of 2000 bootstrap
+resamples of K = 6 and of K = N trials in which the time-averaged RMSE ordering holds:
 
-=================================  =================  ========  ======  ============  =========
-finding                            RMSE (m), 20 runs  paired t  trials  K = 6 resamp  trials 0-5
-=================================  =================  ========  ======  ============  =========
-optimized < no information         21.17 vs 30.05      1.64      90%     99.6%         27.92 vs 41.78
-3 fixed sensors < optimized         6.75 vs 21.17      1.55     100%    100.0%          6.70 vs 27.92
-optimized in region < circle       17.41 vs 20.17      5.33      95%     99.9%         17.47 vs 19.76
-circle < no information            20.17 vs 30.05      2.06      75%     97.9%         19.76 vs 41.78
-Lambda = 8 < no information        22.61 vs 30.05       --       --     99.3%         30.93 vs 41.78
-optimized (free) < circle          21.17 vs 20.17     -0.63      85%     70.5%         27.92 vs 19.76
-circle < zigzag                    20.17 vs 21.55      2.14      70%     80.7%
-circle < pentagon                  20.17 vs 20.87      2.35      75%     87.9%
-circle < square                    20.17 vs 20.74      1.09      70%     67.2%
-=================================  =================  ========  ======  ============  =========
+=================================  ===  =================  ========  ======  =======  =======
+finding                              N  RMSE (m)           paired t  trials  K = 6    K = N
+=================================  ===  =================  ========  ======  =======  =======
+optimized < no information         100  18.23 vs 26.25      4.02      96%     99.9%   100.0%
+3 fixed sensors < optimized         20   6.75 vs 21.17      1.55     100%    100.0%   100.0%
+Lambda = 8 < no information         20  22.61 vs 30.05      1.39      95%     99.0%   100.0%
+circle < no information            100  20.51 vs 26.25      3.17      62%     81.3%   100.0%
+circle < zigzag                    100  20.51 vs 21.60      2.79      60%     70.4%    99.5%
+optimized (free) < zigzag          100  18.23 vs 21.60      0.53      92%     84.5%    98.3%
+optimized (free) < square          100  18.23 vs 21.53      0.62      91%     87.5%    97.9%
+optimized (free) < pentagon        100  18.23 vs 21.06      0.36      93%     88.3%    97.5%
+optimized (free) < circle          100  18.23 vs 20.51      0.07      91%     84.3%    92.8%
+optimized in region < circle       100  18.89 vs 20.51      0.55      85%     93.5%    92.0%
+circle < pentagon                  100  20.51 vs 21.06      1.13      56%     54.8%    85.8%
+circle < square                    100  20.51 vs 21.53      1.01      55%     50.5%    80.8%
+Lambda = 1 < Lambda = 8             20  21.17 vs 22.61      1.08      50%     68.8%    88.8%
+=================================  ===  =================  ========  ======  =======  =======
 
-The first five rows are asserted on 6 trials.  Not reproduced: the paper's freely flying
-optimized UAV beating the best manoeuvre (Fig. 3e).  It is better in 85% of the trials,
-but in trial 5 it loses target 1 (time-averaged error 163 m): the truth, drawn west of
-the prior mean, is guided west round obstacle A while the filter's prediction (every
-particle moved by the guidance plan of the particle mean, Sec. V) goes east, and from
-the UAV's side of the area the range is not observable for long enough to correct it.
-A UAV confined to the manoeuvres' sub-region stays close enough to the targets to keep
-the range observable, and there the optimized decision beats the circle in 19 of 20
-trials (t = 5.3).  The paper's Lambda = 8 being *worse* is not a reliable finding
-either: with sigma = 1 deg and the exact clutter likelihood, eight uniform false alarms
-per scan rarely fall near the target's bearing (t = 1.08, holds in half the trials).
+The fast tests (6 trials, the study's first six) assert the first three rows, each of
+which holds in at least 99% of 6-trial resamples.  The ``slow`` tests run the paper's 100 trials
+and assert the rows that hold in at least 97.5% of 100-trial resamples: the circle beats
+no information and the zig-zag; the freely flying optimized UAV beats the zig-zag, square
+and pentagon.
 
-The manoeuvres' ranking needs more trials; the ``slow`` test runs the paper's 100 (same
-seed; ``python benchmarks/findings.py --trials 100`` repeats it) and asserts what the
-100-trial study supports (table in its docstring).
+Not reproduced, or not reliably: the circle against the square and the pentagon (the
+paper's Fig. 3e ranks it first; here its margin is within noise); the optimized UAV,
+free or confined to the sub-region, against the circle (better in 91% and 85% of trials
+and on the time-averaged RMSE, but the paired t of the mean squared errors is 0.07 and
+0.55).  The reason for the heavy tail: in some trials the
+optimized UAV loses a target, e.g. trial 5, target 1 (time-averaged error 163 m): the
+truth, drawn west of the prior mean, is guided west round obstacle A while the filter's
+prediction (every particle moved by the guidance plan of the particle mean, Sec. V) goes
+east, and from the UAV's side of the area the range is not observable long enough to
+correct it.  The paper's Lambda = 8 being *worse* is not reliable either: with
+sigma = 1 deg and the exact clutter likelihood, eight uniform false alarms per scan
+rarely fall near the target's bearing.
 """
 
 import os
@@ -63,7 +73,6 @@ def six(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("findings")
     return {(f, p): campaign(f, p, 6, tmp) for f, p in [
         ("paper.toml", "baseline"), ("paper.toml", "optimized"), ("paper.toml", "fixed-sensors"),
-        ("paper_constrained.toml", "optimized"), ("paper_constrained.toml", "circle"),
         ("paper_clutter8.toml", "optimized"),
     ]}
 
@@ -82,18 +91,6 @@ def test_three_fixed_sensors_beat_one_uav(six):
     assert avg(six["paper.toml", "fixed-sensors"]) < avg(six["paper.toml", "optimized"])
 
 
-def test_optimized_beats_the_circle_in_the_same_region(six):
-    """Fig. 3e: the optimized decision against the best manoeuvre, both confined to the
-    sub-region of ``paper_constrained.toml``."""
-    assert avg(six["paper_constrained.toml", "optimized"]) < avg(six["paper_constrained.toml", "circle"])
-
-
-def test_the_circle_beats_no_information(six):
-    """A preset manoeuvre's bearings also carry information (the baseline is the same
-    for every planner of a mission: it does not fly)."""
-    assert avg(six["paper_constrained.toml", "circle"]) < avg(six["paper.toml", "baseline"])
-
-
 def test_clutter_rate_8_still_tracks(six):
     """Fig. 2c dotted line: with Lambda = 8 the targets are still tracked: finite errors,
     better than no information, and within twice the error at Lambda = 1."""
@@ -107,11 +104,27 @@ def test_clutter_rate_8_still_tracks(six):
 
 @pytest.fixture(scope="module")
 def hundred(tmp_path_factory):
-    tmp, cache = tmp_path_factory.mktemp("manoeuvres"), {}
+    tmp, cache = tmp_path_factory.mktemp("hundred"), {}
 
-    def get(planner):
-        if planner not in cache:
-            cache[planner] = campaign("paper_constrained.toml", planner, 100, tmp)
-        return cache[planner]
+    def get(mission_file, planner):
+        if (mission_file, planner) not in cache:
+            cache[mission_file, planner] = campaign(mission_file, planner, 100, tmp)
+        return cache[mission_file, planner]
 
     return get
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("other", ["zigzag", "baseline"])
+def test_the_circle_beats_the_zigzag_and_no_information(other, hundred):
+    """Fig. 3e with the paper's 100 trials (t = 2.79 and 3.17, table above)."""
+    mission = "paper.toml" if other == "baseline" else "paper_constrained.toml"
+    assert avg(hundred("paper_constrained.toml", "circle")) < avg(hundred(mission, other))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("manoeuvre", ["zigzag", "square", "pentagon"])
+def test_optimized_beats_the_manoeuvres_on_time_averaged_rmse(manoeuvre, hundred):
+    """Fig. 3e with the paper's 100 trials: on the time-averaged RMSE (>= 97.5% of
+    100-trial resamples); not on the paired mean squared errors (t <= 0.62, table above)."""
+    assert avg(hundred("paper.toml", "optimized")) < avg(hundred("paper_constrained.toml", manoeuvre))
