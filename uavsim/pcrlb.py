@@ -113,12 +113,11 @@ from functools import lru_cache
 import numpy as np
 
 from .sensing import Sensor
-from .targets import Dynamics
+from .targets import HORIZONTAL, Dynamics
 
 MAX_SIGMA = np.pi / 8  # rad: the wrapped tail 2 Phi(-pi / sigma) of the bearing noise is < 1e-15
 _SQRT_2PI = np.sqrt(2.0 * np.pi)
 POS = slice(0, 2)  # (x, y) in the state [x, y, z, vx, vy, vz]
-HORIZONTAL = [0, 1, 3, 4]  # [x, y, vx, vy] of that state: the planned truth's bound lives here
 HORIZONTAL_POS = slice(0, 2)  # (x, y) in [x, y, vx, vy]
 
 

@@ -34,8 +34,9 @@ from scipy.spatial.transform import Rotation
 
 from . import metrics
 from .mission import Mission
-from .pcrlb import HORIZONTAL, HORIZONTAL_POS, information_reduction_factor, scan_information
+from .pcrlb import HORIZONTAL_POS, information_reduction_factor, scan_information
 from .sim import StepInfo
+from .targets import HORIZONTAL
 from .uav import make_policy
 
 PALETTE = np.array([[230, 60, 60], [60, 110, 230], [150, 70, 200], [40, 170, 80], [230, 150, 30], [30, 170, 190]])

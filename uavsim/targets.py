@@ -23,6 +23,8 @@ import numpy as np
 
 from .estimators.plkf import predict
 
+HORIZONTAL = [0, 1, 3, 4]  # [x, y, vx, vy] of the state: the ground targets' free components
+
 
 def transition_matrices(dt: float, friction: float, mass: float) -> tuple[np.ndarray, np.ndarray]:
     """``A (6, 6)`` and ``B (6, 3)`` of Eq. (2).

@@ -13,9 +13,9 @@ Each trial draws every target's true initial state from its prior ``N(mu_0, Sigm
 A planned truth is a deterministic function of its drawn start, ``x_t = g_t(x_0)``.  Its
 sensitivity ``G_t = d x_t / d x_0`` on ``[x, y, vx, vy]`` (:attr:`Truth.sensitivity`) is
 what the accuracy floor of :mod:`.pcrlb` needs: P1's optimum is piecewise affine in the
-start (a QP for each face choice and active set), so a difference of ``DELTA`` along each
-component is exact unless the active set changes within it (checked: forward and
-backward differences must agree; on the paper mission they agree to 1e-8).
+start (a QP for each face choice and active set), so central differences are exact unless
+the active set changes within them (:meth:`.guidance.Guidance.sensitivity` checks; on the
+paper mission forward and backward differences agree to 1e-8).
 
 The filter starts from the prior, never from the drawn truth.
 """
@@ -26,10 +26,8 @@ import numpy as np
 
 from .guidance import Guidance, Plan
 from .mission import Mission, MissionError
-from .pcrlb import HORIZONTAL
 
 START_DRAWS = 1000  # prior draws per target to find a free-space true start
-DELTA = np.array([1e-3, 1e-3, 1e-4, 1e-4])  # m, m, m/s, m/s: difference steps of the sensitivity
 
 
 class Truth:
@@ -76,27 +74,15 @@ class Truth:
                 raise MissionError(self.m.path, f"targets[{j}].position_m",
                                    f"no guidance plan from this start for the truth ({plan.status}: {plan.message})")
             plans.append(plan)
-            self._segment.append(self._plan_sensitivity(j, x, plan, step))
-        return plans
-
-    def _plan_sensitivity(self, j: int, x: np.ndarray, plan: Plan, step: int) -> np.ndarray:
-        """``(T, 4, 4)``: d plan.means / d x on HORIZONTAL by central differences; where the
-        forward and backward differences disagree (a change of active constraints within
-        ``DELTA``), a note says so."""
-        cols = []
-        for i, d in zip(HORIZONTAL, DELTA):
-            e = np.zeros(6)
-            e[i] = d
-            ends = [self.guidance.plan(x + s * e, np.zeros((6, 6)), self.m.goals[j], step=step) for s in (1, -1)]
-            if not all(p.ok for p in ends):
-                raise MissionError(self.m.path, f"targets[{j}].position_m",
-                                   f"no guidance plan for the truth within {d:g} of its start")
-            fwd, bwd = ((s * (p.means[:, HORIZONTAL] - plan.means[:, HORIZONTAL]) / d) for s, p in zip((1, -1), ends))
-            if not np.allclose(fwd, bwd, rtol=1e-4, atol=1e-4):
+            try:
+                g, smooth = self.guidance.sensitivity(x, self.m.goals[j], plan, step)
+            except RuntimeError as exc:
+                raise MissionError(self.m.path, f"targets[{j}].position_m", f"the truth's plan: {exc}") from None
+            if not smooth:
                 self.notes.append(f"{self.m.targets[j].name} (truth): the plan's active constraints change within "
-                                  f"{d:g} of the start; its sensitivity is the central difference across the change")
-            cols.append((fwd + bwd) / 2)
-        return np.stack(cols, axis=-1)  # (T, 4, 4)
+                                  "a millimetre of the start; its sensitivity is the central difference across it")
+            self._segment.append(g)
+        return plans
 
     def controls(self, t: int, events: list[str]) -> np.ndarray:
         """(M, 3) the forces the true targets apply at step t (module docstring)."""

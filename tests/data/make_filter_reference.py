@@ -120,6 +120,9 @@ class RecordingGuidance:
     def replan(self, mean, cov, goal, previous, step):
         return self.plan(mean, cov, goal, warm=previous, step=step)
 
+    def sensitivity(self, *args, **kw):  # the truth's, for the PCRLB: its plans are not recorded
+        return self.inner.sensitivity(*args, **kw)
+
     def plan(self, *args, **kw):
         plan = self.inner.plan(*args, **kw)
         assert plan.ok, plan.status

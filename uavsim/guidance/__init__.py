@@ -25,7 +25,7 @@ from dataclasses import dataclass, replace
 import cvxpy as cp
 import numpy as np
 
-from ..targets import Dynamics
+from ..targets import HORIZONTAL, Dynamics
 from ..world import GROUND_BAND_M, World
 from .compiled import assemble_p1
 from .faces import Reach
@@ -38,6 +38,7 @@ SOLVERS = ("highs", "scip")
 # 0.3 ms + 0.05 us per non-zero (`benchmarks/qp_solvers.py calibrate`), so a solve finishes sooner
 QP_SECONDS, QP_SECONDS_PER_NNZ = 2e-3, 0.4e-6
 WALL_CAP = 4.0  # a solve stops at this many times its nominal budget, plus one second
+SENSITIVITY_STEP = np.array([1e-3, 1e-3, 1e-4, 1e-4])  # m, m, m/s, m/s (Guidance.sensitivity)
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,6 +161,31 @@ class Guidance:
                 self._cold.pop(next(iter(self._cold)))
             self._cold[key] = plan
         return plan
+
+    def sensitivity(self, start: np.ndarray, goal: np.ndarray, plan: Plan, step: int = 0) -> tuple[np.ndarray, bool]:
+        """``(G (T, 4, 4), smooth)``: d ``plan.means`` / d ``start`` on [x, y, vx, vy] of a
+        noise-free plan from ``start (6,)``, by central differences of ``SENSITIVITY_STEP``.
+
+        P1's optimum is piecewise affine in the start (a QP for each face choice and active
+        set), so the difference is exact unless the active set changes within the step;
+        ``smooth`` is False when the forward and backward differences disagree (then G is
+        their mean).  Used for the accuracy floor of a planned truth (:mod:`uavsim.pcrlb`).
+
+        Raises
+        ------
+        RuntimeError when no plan exists from a start moved by the step.
+        """
+        zero, cols, smooth = np.zeros((6, 6)), [], True
+        for i, d in zip(HORIZONTAL, SENSITIVITY_STEP):
+            e = np.zeros(6)
+            e[i] = d
+            ends = [self.plan(start + s * e, zero, goal, step=step) for s in (1, -1)]
+            if not all(p.ok for p in ends):
+                raise RuntimeError(f"no plan from the start moved by {d:g} along state component {i}")
+            fwd, bwd = (s * (p.means[:, HORIZONTAL] - plan.means[:, HORIZONTAL]) / d for s, p in zip((1, -1), ends))
+            smooth &= bool(np.allclose(fwd, bwd, rtol=1e-4, atol=1e-4))
+            cols.append((fwd + bwd) / 2)
+        return np.stack(cols, axis=-1), smooth
 
     def replan(self, mean: np.ndarray, cov: np.ndarray, goal: np.ndarray, previous: Plan | None,
                step: int) -> Plan:
