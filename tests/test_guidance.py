@@ -16,7 +16,9 @@ from uavsim.guidance.model import build_p1
 from uavsim.targets import Dynamics
 from uavsim.world import World
 
-from .conftest import PAPER
+from .conftest import PAPER, ROOT
+
+DATA = ROOT / "tests" / "data"
 
 MISSION = load_mission(PAPER)
 GOAL = MISSION.world.goals[0].centroid
@@ -211,6 +213,28 @@ def test_warm_start_gives_the_cold_optimum(paper_guidance, paper_plans):
         warm = paper_guidance.plan(start, t.cov0, GOAL, warm=plan)
         assert cold.status == warm.status == "optimal"
         assert warm.objective == pytest.approx(cold.objective, rel=2 * MISSION.guidance.gap)
+
+
+def test_warm_start_from_a_two_step_plan_at_the_shortest_horizon(tmp_path):
+    """The last re-plan of a shrinking horizon: a 2-step plan re-planned at horizon 2 has
+    nothing left after the one-step shift, so its last step stands in.  Found on generated
+    world 43 (``benchmarks/worlds.py``), whose filter re-plan at step 49 (inputs stored in
+    tests/data/world43_last_replan.npz) ended in an IndexError; now it is the cold optimum."""
+    from uavsim.guidance import Plan
+    from uavsim.worldgen import generate, mission_toml, world_toml
+
+    gen = dataclasses.replace(generate(np.random.default_rng(43), 43 % 16, 1 + 43 % 8), name="gen-s43", seed=43)
+    (tmp_path / "w.world.toml").write_text(world_toml(gen))
+    (tmp_path / "w.toml").write_text(mission_toml(gen, "w.world.toml"))
+    m = load_mission(tmp_path / "w.toml")
+    g = Guidance(m.world, m.dynamics, m.guidance)
+    z = np.load(DATA / "world43_last_replan.npz")
+    previous = Plan("optimal", 0.0, 0.0, 0.0, 1, 0.0, z["wcontrols"], z["wmeans"], None, z["wfaces"], z["wterms"])
+    assert previous.faces.shape[0] == 1 and g.horizon_at(49) == 2
+    warm = g.plan(z["mean"], z["cov"], z["goal"], warm=previous, step=49)
+    cold = g.plan(z["mean"], z["cov"], z["goal"], step=49)
+    assert warm.ok and cold.ok
+    assert warm.objective == pytest.approx(cold.objective, rel=2 * m.guidance.gap)
 
 
 def test_deterministic(paper_guidance):

@@ -263,13 +263,17 @@ def _shift_warm(plan: Plan, horizon: int) -> tuple[np.ndarray, np.ndarray, np.nd
     """Faces, terms and planned points of ``plan`` one step on, fitted to a plan of
     ``horizon`` steps: step tau of the new plan is step tau + 1 of the old one; missing
     steps repeat the last one (receding horizon) and surplus steps are dropped (shrinking
-    horizon).  Points are ``(T-1, 2)`` positions for steps 2..T."""
+    horizon).  Points are ``(T-1, 2)`` positions for steps 2..T.  A plan with nothing left
+    after the shift (a 2-step plan re-planned at the shortest horizon, 2) repeats its
+    last step."""
     rows = horizon - 1
 
-    def fit(a: np.ndarray) -> np.ndarray:
+    def fit(a: np.ndarray, full: np.ndarray) -> np.ndarray:
+        a = a if len(a) else full[-1:]
         return np.concatenate([a, np.repeat(a[-1:], max(rows - len(a), 0), axis=0)])[:rows]
 
     d = plan.terms[2:].reshape(2, -1)[:, 1:]  # [d_x..., d_y...] (cvxpy's column-major order), shifted
     d = np.concatenate([d, np.zeros((2, max(rows - d.shape[1], 0)))], axis=1)[:, :rows]
     # old means[k] is p_{k+1}; the new plan's step tau = r + 2 is the old step r + 3 = means[r + 2]
-    return fit(plan.faces[1:]), np.r_[plan.terms[:2], d.reshape(-1)], fit(plan.means[2:, :2])
+    return (fit(plan.faces[1:], plan.faces), np.r_[plan.terms[:2], d.reshape(-1)],
+            fit(plan.means[2:, :2], plan.means[:, :2]))
