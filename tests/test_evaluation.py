@@ -184,3 +184,25 @@ def test_an_overconfident_filter_is_caught():
     lo, hi = metrics.nees_band(400, 2)
     assert avg > hi and np.isclose(avg, 8.0, rtol=0.15)
     assert stats.chi2.sf(avg * 400, 800) < 1e-6
+
+
+def test_a_planned_truth_starts_from_the_next_draw_that_has_a_plan(tmp_path):
+    """Generated world 26, trial 1 (as ``benchmarks/worlds.py`` runs it): target T2's first
+    clear draw from the prior lies 33 m inside the area's southern edge heading south too
+    fast for the force limit, so no plan exists from it (this used to end the run).  The
+    truth starts from the next clear draw, inside the area, and says so in an event."""
+    from dataclasses import replace
+
+    from uavsim.worldgen import generate, mission_toml, world_toml
+
+    gen = replace(generate(np.random.default_rng(26), 26 % 16, 1 + 26 % 8), name="gen-s26", seed=26)
+    (tmp_path / "w.world.toml").write_text(world_toml(gen))
+    (tmp_path / "w.toml").write_text(mission_toml(gen, "w.world.toml"))
+    m = load_mission(tmp_path / "w.toml")
+    sim = Simulation(m, "optimized")
+    sim.reset(trial_seeds(m.seed, 2)[1])
+    info = sim.step()
+    notes = [e for e in info.events if "(truth)" in e]
+    assert notes == ["T2 (truth): 1 draw(s) from the prior had no guidance plan (infeasible: no plan meets the "
+                     "speed, force and area limits even without obstacles); the start is the next clear draw"]
+    assert np.all(info.truth[:, :2] >= m.world.area_lo[:2]) and np.all(info.truth[:, :2] <= m.world.area_hi[:2])

@@ -2,7 +2,8 @@
 
 Each trial draws every target's true initial state from its prior ``N(mu_0, Sigma_0)``
 (restricted to starts outside every obstacle that stay out during their first step
-``p + v dt``, which no force can change), then moves it by the mission's truth mode:
+``p + v dt``, which no force can change, and for a planned truth to starts with a
+guidance plan), then moves it by the mission's truth mode:
 
 * ``planned`` (the paper, Sec. VI-B): along the noise-free guidance plan computed from
   that drawn start at t = 1 (re-planned noise-free from its end if the mission outlasts
@@ -28,6 +29,7 @@ from .guidance import Guidance, Plan
 from .mission import Mission, MissionError
 
 START_DRAWS = 1000  # prior draws per target to find a free-space true start
+PLAN_TRIES = 20  # clear draws tried per target until one has a guidance plan (planned truth)
 
 
 class Truth:
@@ -39,7 +41,8 @@ class Truth:
     def __init__(self, mission: Mission, guidance: Guidance, start_rng: np.random.Generator,
                  noise_rng: np.random.Generator):
         self.m, self.guidance, self.rng = mission, guidance, noise_rng
-        self.state = self._start(start_rng)
+        self._candidates = self._start(start_rng)
+        self.state = np.array([c[0] for c in self._candidates])
         self.plans: list[Plan | None] = [None] * len(mission.targets)
         self.sensitivity: np.ndarray | None = None  # (M, 4, 4) d x_t / d x_0 on HORIZONTAL (planned)
         self.notes: list[str] = []
@@ -47,9 +50,10 @@ class Truth:
             self.sensitivity = np.broadcast_to(np.eye(4), (len(mission.targets), 4, 4)).copy()
             self.plans = self._noise_free_plans(0)
 
-    def _start(self, rng: np.random.Generator) -> np.ndarray:
-        """(M, 6): per target the first of ``START_DRAWS`` prior draws that is clear (see
-        module docstring).  A fixed number of draws, so the stream does not depend on
+    def _start(self, rng: np.random.Generator) -> list[np.ndarray]:
+        """Per target the ``(k, 6)`` clear draws among ``START_DRAWS`` from the prior, in
+        order (see module docstring): the first is the true start unless a planned truth
+        has no plan from it.  A fixed number of draws, so the stream does not depend on
         where the obstacles are."""
         means = np.array([t.mean0 for t in self.m.targets])
         covs = np.array([t.cov0 for t in self.m.targets])
@@ -64,15 +68,13 @@ class Truth:
             raise MissionError(self.m.path, f"targets[{j}].cov0_si",
                                f"none of {START_DRAWS} draws from the prior is outside the obstacles "
                                "and clear of them after one step")
-        return draws[np.argmax(free, axis=0), np.arange(len(means))]
+        return [draws[free[:, j], j] for j in range(len(means))]
 
     def _noise_free_plans(self, step: int) -> list[Plan]:
         plans, self._segment, self._segment_start = [], [], self.sensitivity.copy()
-        for j, x in enumerate(self.state):
-            plan = self.guidance.plan(x, np.zeros((6, 6)), self.m.goals[j], step=step)
-            if not plan.ok:
-                raise MissionError(self.m.path, f"targets[{j}].position_m",
-                                   f"no guidance plan from this start for the truth ({plan.status}: {plan.message})")
+        for j in range(len(self.state)):
+            plan = self._first_plan(j, step)
+            x = self.state[j]
             plans.append(plan)
             try:
                 g, smooth = self.guidance.sensitivity(x, self.m.goals[j], plan, step)
@@ -83,6 +85,27 @@ class Truth:
                                   "a millimetre of the start; its sensitivity is the central difference across it")
             self._segment.append(g)
         return plans
+
+    def _first_plan(self, j: int, step: int) -> Plan:
+        """Target j's noise-free plan from its state; at step 0 from the first of its clear
+        prior draws that has one (at most ``PLAN_TRIES``: a draw near the area's edge,
+        heading out faster than the force limit can turn, has none), noted as an event."""
+        tries = self._candidates[j][:PLAN_TRIES] if step == 0 else self.state[j:j + 1]
+        failed: list[Plan] = []
+        for x in tries:
+            plan = self.guidance.plan(x, np.zeros((6, 6)), self.m.goals[j], step=step)
+            if plan.ok:
+                if failed:
+                    self.notes.append(f"{self.m.targets[j].name} (truth): {len(failed)} draw(s) from the prior had "
+                                      f"no guidance plan ({failed[0].status}: {failed[0].message}); the start is "
+                                      "the next clear draw")
+                self.state[j] = x
+                return plan
+            failed.append(plan)
+        first = failed[0]
+        raise MissionError(self.m.path, f"targets[{j}].position_m",
+                           f"no guidance plan for the truth from {len(tries)} start(s) "
+                           f"({first.status}: {first.message})")
 
     def controls(self, t: int, events: list[str]) -> np.ndarray:
         """(M, 3) the forces the true targets apply at step t (module docstring)."""
