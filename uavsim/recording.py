@@ -34,9 +34,8 @@ from scipy.spatial.transform import Rotation
 
 from . import metrics
 from .mission import Mission
-from .pcrlb import HORIZONTAL_POS, information_reduction_factor, scan_information
+from .pcrlb import HORIZONTAL_POS, pcrlb_planned
 from .sim import StepInfo
-from .targets import HORIZONTAL
 from .uav import make_policy
 
 PALETTE = np.array([[230, 60, 60], [60, 110, 230], [150, 70, 200], [40, 170, 80], [230, 150, 30], [30, 170, 190]])
@@ -85,10 +84,8 @@ class Recorder:
         self.est_path: list[np.ndarray] = []
         self.uav_path: list[np.ndarray] = []
         sensor = make_policy(planner, mission).sensor or mission.sensor  # the fixed sensors carry their own
-        self.sigma = sensor.sigma
-        self.q2 = information_reduction_factor(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
-        cov0 = np.array([t.cov0 for t in mission.targets])[:, HORIZONTAL][:, :, HORIZONTAL]
-        self.info = np.linalg.inv(cov0)  # (M, 4, 4) information on the true start (planned truth)
+        self.sensor, self.cov0 = sensor, np.array([t.cov0 for t in mission.targets])
+        self.seen: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (sensitivity, truth, observers)
         self._static()
 
     # ------------------------------------------------------------------ static scene
@@ -143,12 +140,10 @@ class Recorder:
             rec.log(f"metrics/error/{name}", rr.Scalars(e))
             rec.log(f"metrics/trace/{name}", rr.Scalars(tr))
         rec.log("metrics/error/RMSE", rr.Scalars(np.sqrt(np.mean(err**2))))  # over the targets, this trial
-        if info.t > 0 and info.sensitivity is not None:
-            g = info.sensitivity  # (M, 4, 4)
-            gp = g[:, HORIZONTAL_POS, :]
-            w = scan_information(info.truth, info.observers, self.sigma, self.q2)  # (M, 2, 2)
-            self.info += np.swapaxes(gp, 1, 2) @ w @ gp
-            cov = g @ np.linalg.solve(self.info, np.swapaxes(g, 1, 2))
+        if info.t > 0 and info.sensitivity is not None:  # the bound of this trial alone (planned truth)
+            self.seen.append((info.sensitivity, info.truth, info.observers))
+            sens, truth, observers = map(np.array, zip(*self.seen))
+            cov = pcrlb_planned(sens, truth, observers, self.cov0, self.sensor).cov[-1]  # (M, 4, 4)
             var = np.trace(cov[:, HORIZONTAL_POS, HORIZONTAL_POS], axis1=1, axis2=2)  # (M,)
             rec.log("metrics/error/PCRLB", rr.Scalars(np.sqrt(var.mean())))
         nees = metrics.state_nees(info.mean, info.cov, info.truth, metrics.POS)
