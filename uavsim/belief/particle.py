@@ -26,7 +26,6 @@ A degenerate update (every particle has zero likelihood, e.g. a missed detection
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -36,6 +35,7 @@ from .traces import pseudo_traces
 
 LOG_2PI = np.log(2.0 * np.pi)
 EXP_FLOOR = -700.0  # exp(-700) = 1e-304: nothing next to a sum >= 1
+SHIFT_GAP = 600.0  # a sum >= e^-600 leaves e^-700 at 1e-43 of it
 
 
 def log_likelihood(bearings: np.ndarray, valid: np.ndarray, expected: np.ndarray, sensor: Sensor) -> np.ndarray:
@@ -64,15 +64,21 @@ def _log_likelihood(bearings: np.ndarray, valid: np.ndarray, expected: np.ndarra
     a leading axis, so the log-sum-exp over them is a few elementwise passes over
     ``(M, N)`` arrays (a reduction over a short last axis is several times slower).
     With both angles in ``[-pi, pi]`` the wrapped residual has ``|r| = pi - |pi - |d||``,
-    ``d = l - phi``: no ``mod``.  Shifted terms below ``EXP_FLOOR`` are raised to it
-    before ``exp``: the sum they join is at least 1 (the largest term is ``exp(0)``), so
-    ``e^-700`` and 0 give the same double, and ``exp`` of an underflowing argument runs
-    several times slower.
+    ``d = l - phi``: no ``mod``.
+
+    The log-sum-exp is shifted once per target by its largest hypothesis constant when
+    the "all clutter" term (the same for every particle) keeps each particle's shifted
+    sum above ``e^-SHIFT_GAP``: true whenever ``p_D < 1``, ``Lambda > 0`` and the
+    constants are within 600 of each other, and it saves five passes over the particles.
+    Otherwise (``p_D = 1`` or no clutter) each particle is shifted by its own largest
+    hypothesis, so its sum is at least 1.  Shifted terms below ``EXP_FLOOR`` are raised
+    to it before ``exp``: next to a sum of at least ``e^-600`` an ``e^-700`` and a 0 give
+    the same double, and ``exp`` of an underflowing argument runs several times slower.
     """
     lam, pd, sig = sensor.clutter_rate, sensor.p_detect, sensor.sigma
     log_miss, log_det = _hypothesis_logs(valid.sum(axis=1), lam, pd)  # (M,) each
     # per hypothesis (K, M): log p_D (L / 2pi)^(n-1) / (sigma sqrt(2 pi)); -inf for padding
-    const = np.where(valid.T, log_det - math.log(sig) - 0.5 * LOG_2PI, -np.inf)[:, :, None]
+    const = np.where(valid.T, log_det - math.log(sig) - 0.5 * LOG_2PI, -np.inf)
     terms = np.subtract(expected, bearings.T[:, :, None])  # (K, M, N) d = l - phi in [-2pi, 2pi]
     np.abs(terms, out=terms)
     np.subtract(np.pi, terms, out=terms)
@@ -80,20 +86,23 @@ def _log_likelihood(bearings: np.ndarray, valid: np.ndarray, expected: np.ndarra
     np.subtract(np.pi, terms, out=terms)  # |r|
     np.square(terms, out=terms)
     terms *= -0.5 / sig**2
-    terms += const
-    top = np.maximum(terms.max(axis=0, initial=-np.inf), log_miss[:, None])  # (M, N) largest hypothesis
     dead = np.isneginf(log_miss) & np.isneginf(log_det)  # (M,) no hypothesis can explain the set
-    if dead.any():
+    top = np.maximum(const.max(axis=0, initial=-np.inf), log_miss)  # (M,) largest constant
+    if np.isfinite(log_miss).all() and np.all(top - log_miss < SHIFT_GAP):
+        top = top[:, None]  # one shift per target: "all clutter" keeps each sum >= e^-SHIFT_GAP
+        terms += (const.T - top).T[:, :, None]
+    else:  # one shift per particle: its largest hypothesis
+        terms += const[:, :, None]
+        top = np.maximum(terms.max(axis=0, initial=-np.inf), log_miss[:, None])  # (M, N)
         top[dead] = 0.0
-    terms -= top
+        terms -= top
     np.maximum(terms, EXP_FLOOR, out=terms)
     total = np.exp(terms, out=terms).sum(axis=0)
     total += np.exp(np.maximum(log_miss[:, None] - top, EXP_FLOOR))
     out = np.log(total, out=total)
     out += top
     out -= lam
-    if dead.any():
-        out[dead] = -np.inf
+    out[dead] = -np.inf
     return out
 
 
@@ -112,18 +121,33 @@ def _hypothesis_logs(n: np.ndarray, lam: float, pd: float) -> tuple[np.ndarray, 
     return log_miss, log_det
 
 
-@dataclass
 class ParticleFilter:
     """M particle filters in one array; a thin stateful wrapper around pure steps.
 
     Attributes
     ----------
-    particles : (M, N, 6); logw : (M, N) normalised log-weights.
+    particles : (M, N, 6); logw : (M, N) normalised log-weights; weights : (M, N)
+    ``exp(logw)``, computed once per new ``logw`` (the ESS test, the moments and the
+    decision all read it).
     """
 
-    particles: np.ndarray
-    logw: np.ndarray
-    _work: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # scratch buffers
+    def __init__(self, particles: np.ndarray, logw: np.ndarray):
+        self.particles, self.logw = particles, logw
+        self._work: dict = {}  # scratch buffers
+
+    @property
+    def logw(self) -> np.ndarray:
+        return self._logw
+
+    @logw.setter
+    def logw(self, value: np.ndarray) -> None:
+        self._logw, self._weights = value, None
+
+    @property
+    def weights(self) -> np.ndarray:
+        if self._weights is None:
+            self._weights = np.exp(self._logw)
+        return self._weights
 
     @classmethod
     def from_priors(cls, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int) -> "ParticleFilter":
@@ -132,10 +156,6 @@ class ParticleFilter:
         z = rng.standard_normal((means.shape[0], n, 6))
         particles = means[:, None, :] + np.einsum("mij,mnj->mni", chol, z)
         return cls(particles, np.full(particles.shape[:2], -np.log(n)))
-
-    @property
-    def weights(self) -> np.ndarray:
-        return np.exp(self.logw)
 
     def predict(self, rng: np.random.Generator, a: np.ndarray, b: np.ndarray, q_chol: np.ndarray,
                 controls: np.ndarray) -> None:
@@ -182,7 +202,9 @@ class ParticleFilter:
             spread = self.particles[rows].max(axis=1) - self.particles[rows].min(axis=1)  # (r, d)
             picked = picked + rng.standard_normal(picked.shape) * (roughening * spread * n ** (-1.0 / d))[:, None, :]
         self.particles[rows] = picked
-        self.logw[rows] = -np.log(n)
+        logw = self.logw.copy()
+        logw[rows] = -np.log(n)
+        self.logw = logw
         return which
 
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
