@@ -190,11 +190,20 @@ class Guidance:
     def replan(self, mean: np.ndarray, cov: np.ndarray, goal: np.ndarray, previous: Plan | None,
                step: int) -> Plan:
         """The closed loop's plan, which always exists: a new plan (:meth:`plan`); if none is
-        found, ``previous`` one step on (:meth:`Plan.shifted`); without a previous plan,
-        zero force over the horizon.  The last two have status "fallback" and say why."""
+        found and the estimate lies outside the area or above the speed limit (no plan can
+        start there), a plan from the nearest start within them (:meth:`_within_limits`;
+        the message says so); else ``previous`` one step on (:meth:`Plan.shifted`); without
+        a previous plan, zero force over the horizon.  The last two have status "fallback"
+        and say why."""
         plan = self.plan(mean, cov, goal, warm=previous, step=step)
         if plan.ok:
             return plan
+        inside, why = self._within_limits(mean)
+        if why:
+            retry = self.plan(inside, cov, goal, warm=previous, step=step)
+            if retry.ok:
+                return replace(retry, message="; ".join(filter(None, [f"planned from the nearest start within the "
+                                                                      f"limits ({why})", retry.message])))
         if previous is not None:
             return previous.shifted(self.dynamics, mean, cov, f"re-plan {plan.status} ({plan.message}); "
                                                             "flying the previous plan")
@@ -225,6 +234,21 @@ class Guidance:
         gap = max(obj - lb, 0.0) / max(obj, 1.0)
         return Plan(status, obj, lb, gap, it, time.perf_counter() - t0, controls, means, covs, faces, terms,
                     self._in_margin(means[0]), msg)
+
+    def _within_limits(self, mean: np.ndarray) -> tuple[np.ndarray, str]:
+        """``mean (6,)`` with its ground position clipped to the area and its ground speed
+        scaled down to ``speed_max``, and what was changed ("" if nothing).  An estimate
+        can leave those limits (the truth cannot, from step 2 on); every plan of P1 starts
+        within them."""
+        out, why = mean.copy(), []
+        out[:2] = np.clip(mean[:2], self.geom.area_lo, self.geom.area_hi)
+        if np.any(out[:2] != mean[:2]):
+            why.append(f"estimate at ({mean[0]:.1f}, {mean[1]:.1f}) m is outside the area")
+        speed = float(np.hypot(mean[3], mean[4]))
+        if speed > self.cfg.speed_max:
+            out[3:5] *= self.cfg.speed_max / speed
+            why.append(f"estimated speed {speed:.1f} m/s is above speed_max")
+        return out, "; ".join(why)
 
     def _failed(self, status, t0, message, lower=np.nan) -> Plan:
         return Plan(status, np.inf, lower, np.inf, 0, time.perf_counter() - t0, None, None, None, message=message)

@@ -71,7 +71,6 @@ from .qp import FixedFaceQP, QpSolution
 
 _STATUS = highspy.HighsModelStatus
 E_GRID = np.array([0.05, 0.2, 0.5, 1.0])  # initial tangent points, as fractions of |s_k|'s bound
-NEAR_WALL_STEPS = 4  # steps 2..5 keep only obstacle + clearance when the start is near a wall
 ROUTES = 3  # topologically distinct shortest routes that seed the face choices of a first plan
 
 
@@ -188,10 +187,8 @@ class OuterApproximation:
         solver keeps no other state: a solve depends on its arguments (and, only when the
         wall-clock cap stops it, on time).
         """
-        p1_pos = x0[:2] + self.reach.dt * x0[2:]
-        b, shrink = self._offsets(p1_pos)
+        b = np.broadcast_to(self.offsets[None], self.shape)  # face offsets of every step
         lo, hi = self.c.rows(np.r_[x0, goal])
-        hi = hi + shrink  # Eq. (8d) rows read -(a . p) - M y <= -b
         relax = self.qp.solve(lo, hi, np.ones(self.shape), relax=True)
         if relax is None:
             return Solution("infeasible", np.inf, np.inf, np.inf, 0, None,
@@ -204,7 +201,7 @@ class OuterApproximation:
         if not np.any((inside(relax.x[2:, :2], b) > 1e-7) & ~stuck):  # the obstacle-free optimum is clear
             y = choose_faces(relax.x[2:, :2], b, *prune(face_lo, face_hi, b, stuck))
             plan = self._reference(lo, hi, replace(relax, y=y))
-            return Solution("optimal", plan.f, min(relax.f, plan.f), 0.0, 0, plan)
+            return self._noted(Solution("optimal", plan.f, min(relax.f, plan.f), 0.0, 0, plan), stuck, budget)
         hi[self.c.sum_rows] = np.where(stuck.reshape(-1), 4.0, 3.0)  # Eq. (8e) off for stuck pairs
         bounds = prune(face_lo, face_hi, b, stuck)
         ctx = _Context(lo, hi, b, stuck, relax, x0, goal, budget, [relax.s] + ([warm[1]] if warm is not None else []))
@@ -215,9 +212,12 @@ class OuterApproximation:
             lower = min(sol.lower_bound, plan.f)
             sol = replace(sol, objective=plan.f, lower_bound=lower, gap=max(plan.f - lower, 0.0) / max(plan.f, 1.0),
                           plan=plan)
+        return self._noted(sol, stuck, budget)
+
+    def _noted(self, sol: Solution, stuck: np.ndarray, budget: Budget) -> Solution:
+        """``sol`` with what a plan must tell its reader: avoidance dropped at early steps,
+        a wall-clock stop."""
         notes = [sol.message] if sol.message else []
-        if shrink.any() and sol.plan is not None:
-            notes.append(f"start near a wall: steps 2-{NEAR_WALL_STEPS + 1} keep only the clearance margin")
         if stuck.any() and sol.plan is not None:
             names = ", ".join(f"'{self.geom.names[k]}'" for k in np.flatnonzero(stuck.any(axis=0)))
             last = int(np.flatnonzero(stuck.any(axis=1))[-1]) + 2
@@ -230,25 +230,6 @@ class OuterApproximation:
         """The plan returned: with :attr:`reference_plans`, Clarabel's solution of the QP
         that gave it (:meth:`.qp.FixedFaceQP.reference`)."""
         return self.qp.reference(lo, hi, plan) if self.reference_plans else plan
-
-    def _offsets(self, p1: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Face offsets ``b (T-1, n, 4)`` of every step, and the per-row relaxation.
-
-        A start within one step of travel of an inflated obstacle may be unable to stay
-        out of the full margin (it is there to make segments safe, see :mod:`.model`).
-        For that obstacle, steps 2..``NEAR_WALL_STEPS + 1`` then only keep clear of the
-        obstacle by the clearance; later steps have the full margin again.
-        """
-        g = self.geom
-        reach = self.reach.v_max * self.reach.dt
-        near = np.all((p1 >= g.lo - reach) & (p1 <= g.hi + reach), axis=1)  # (n,)
-        cut = np.zeros(self.shape[:2])
-        cut[:NEAR_WALL_STEPS, near] = g.margin - g.clearance
-        b = self.offsets[None, :, :] - cut[:, :, None]
-        shrink = np.zeros(self.c.a.shape[0])
-        rows = self.avoid_rows
-        shrink[rows] = cut.reshape(-1)[self.c.row_y[rows] // 4]
-        return b, shrink
 
     # ------------------------------------------------------------------ pieces
     def _qp(self, ctx: "_Context", y: np.ndarray, best: QpSolution | None) -> QpSolution | None:
