@@ -29,7 +29,7 @@ from .guidance.model import GuidanceConfig
 from .mission import TRUTH_MODES, Mission, MissionError
 from .sensing import Sensor
 from .targets import Dynamics, Target
-from .uav import PLANNERS, FixedSensorsConfig, ManoeuvreConfig, PlannerConfig, UavConfig
+from .uav import PLANNERS, FixedSensorsConfig, LookaheadConfig, ManoeuvreConfig, PlannerConfig, UavConfig
 from .world import GoalRegion, Region2D, World, free_space, ground_footprints, inside_polytopes
 
 DEFAULT_FIXED_SENSORS = [[150.0, 200.0], [800.0, 200.0], [500.0, 900.0]]  # 004 Sec. VI-B, a 1 km area
@@ -490,8 +490,12 @@ def _planner(t: _Table, uav: UavConfig, sensor: Sensor, world: World) -> Planner
                       clutter_rate=f.number("clutter_rate", default=0.0, lo=0)),
     )
     f.finish()
+    la = t.table("lookahead", optional=True) or _Table(t.file, t.path("lookahead"), {})
+    lookahead = LookaheadConfig(horizon=la.number("horizon_steps", default=LookaheadConfig.horizon, integer=True,
+                                                  lo=1, hi=50))
+    la.finish()
     t.finish()
-    return PlannerConfig(name=name, manoeuvres=manoeuvres, fixed_sensors=fixed)
+    return PlannerConfig(name=name, manoeuvres=manoeuvres, fixed_sensors=fixed, lookahead=lookahead)
 
 
 def _check_fixed_sensors(t: _Table, xy: np.ndarray, given: bool, world: World) -> None:

@@ -8,6 +8,8 @@ maps the names a mission or the command line uses to their makers:
 
 * ``optimized``: the grid move of least summed pseudo-posterior trace (Eq. 3, 12-13),
   or a move chosen from outside (``Simulation.step(action)``, the Gymnasium environment);
+* ``lookahead``: the first grid move of the path of least accumulated covariance trace
+  over several steps (non-myopic; :mod:`.lookahead`);
 * ``zigzag``, ``square``, ``pentagon``, ``circle``: pre-computed loops (Fig. 3);
 * ``fixed-sensors``: three static sensors without false alarms (Fig. 2c);
 * ``baseline``: no sensor (the no-information baseline).
@@ -25,15 +27,17 @@ from ..mission import Mission
 from ..sensing import Sensor
 from .fixed import FixedSensors, FixedSensorsConfig, NoSensor
 from .grid import GridOptimizer, UavConfig, admissible, candidates, move_offsets, uav_start
+from .lookahead import Lookahead, LookaheadConfig
 from .manoeuvres import MANOEUVRES, Manoeuvre, ManoeuvreConfig, Route, manoeuvre_loop, manoeuvre_route, place_loop
 
-POLICIES = {"optimized": GridOptimizer, **{n: partial(Manoeuvre, n) for n in MANOEUVRES},
+POLICIES = {"optimized": GridOptimizer, "lookahead": Lookahead, **{n: partial(Manoeuvre, n) for n in MANOEUVRES},
             "fixed-sensors": FixedSensors, "baseline": NoSensor}
 PLANNERS = tuple(POLICIES)
 BASELINE = "baseline"  # the policy every study is measured against
 
 __all__ = ["POLICIES", "PLANNERS", "BASELINE", "MANOEUVRES", "Policy", "PlannerConfig", "UavConfig", "ManoeuvreConfig",
-           "FixedSensorsConfig", "GridOptimizer", "Manoeuvre", "FixedSensors", "NoSensor", "Route", "make_policy",
+           "FixedSensorsConfig", "LookaheadConfig", "GridOptimizer", "Lookahead", "Manoeuvre", "FixedSensors",
+           "NoSensor", "Route", "make_policy",
            "admissible", "candidates", "move_offsets", "uav_start", "manoeuvre_loop", "manoeuvre_route", "place_loop"]
 
 
@@ -44,6 +48,7 @@ class PlannerConfig:
     name: str
     manoeuvres: ManoeuvreConfig
     fixed_sensors: FixedSensorsConfig
+    lookahead: LookaheadConfig = LookaheadConfig()
 
 
 class Policy(Protocol):

@@ -1,0 +1,116 @@
+"""The ``lookahead`` policy: a non-myopic UAV that scores whole paths of grid moves.
+
+The paper's UAV (004_22b452551a772073.txt Eq. 13) looks one step ahead.  This policy
+scores every admissible first move of Eq. (3) followed by ``horizon - 1`` steps of one
+straight continuation (staying, or the largest grid move ``N_r Dr`` in one of the
+``N_th`` grid directions, repeated), and flies the first move of the best path; the
+next step it decides again (receding horizon).  A path is pruned, like a single move in
+Eq. (3), where any of its positions leaves the area or the operating region or lies in
+an obstacle, or one of its segments crosses an obstacle.
+
+**Score.**  Each target's predicted belief is summarised by its moments on
+``[x, y, vx, vy]`` (:data:`uavsim.targets.HORIZONTAL`).  Along a path the covariance
+follows the information recursion of the closed-loop bound (:mod:`uavsim.pcrlb`), in
+covariance form: ``P <- A P A^T + Q`` between scans and a bearing scan from the UAV's
+position ``s_k`` adds ``q2 h^T h / sigma^2``, i.e. the rank-one update
+
+    P <- P - P h^T h P / (h P h^T + sigma^2 / q2),   h = (dy, -dx, 0, 0) / r^2,
+
+with ``d`` the predicted mean minus ``s_k`` and ``q2`` the information reduction factor
+of missed detections and clutter (:func:`uavsim.pcrlb.information_reduction_factor`).
+The path's score is ``sum_k sum_j tr P_{j,k}`` over its ``horizon`` steps: the Eq. (13)
+criterion (summed covariance traces) accumulated over the path instead of taken once.
+
+Choices (documented, not from a paper): the predicted means move at constant velocity
+(``p <- p + dt v``; the targets' guidance forces are not known to the UAV), the range in
+``h`` is floored at 1 m (a UAV directly above a mean), and continuations are straight
+so that the number of paths is ``C (1 + N_th)``, not ``C^horizon``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..mission import Mission
+from ..pcrlb import information_reduction_factor
+from ..targets import HORIZONTAL
+from .grid import GridOptimizer, move_offsets
+
+MIN_RANGE_M = 1.0
+
+
+@dataclass(frozen=True, eq=False)
+class LookaheadConfig:
+    """``horizon``: steps scored per path (1 = the first move only)."""
+
+    horizon: int = 8
+
+
+class Lookahead(GridOptimizer):
+    """Receding-horizon path search over grid moves (module docstring)."""
+
+    name = "lookahead"
+
+    def __init__(self, mission: Mission):
+        super().__init__(mission)
+        uav, dyn, s = mission.uav, mission.dynamics, mission.sensor
+        self.horizon = mission.planner.lookahead.horizon
+        ring = move_offsets(uav.n_r * uav.step, uav.n_theta, 1)  # (1 + N_th, 2): stay, then the largest moves
+        self.continuations = ring
+        self.a = dyn.a[np.ix_(HORIZONTAL, HORIZONTAL)]
+        self.q = dyn.q[np.ix_(HORIZONTAL, HORIZONTAL)]
+        self.dt = dyn.dt
+        q2 = information_reduction_factor(s.sigma, s.p_detect, s.clutter_rate)
+        self.noise = s.sigma**2 / q2 if q2 > 0 else np.inf
+
+    def paths(self, cands: np.ndarray) -> np.ndarray:
+        """``(C, V, H, 3)`` positions: first move c, then continuation v repeated."""
+        k = np.arange(self.horizon)[None, None, :, None]
+        xy = cands[:, None, None, :2] + k * self.continuations[None, :, None, :]
+        z = np.broadcast_to(cands[:, None, None, 2:], xy.shape[:-1] + (1,))
+        return np.concatenate([xy, z], axis=-1)
+
+    def path_admissible(self, paths: np.ndarray) -> np.ndarray:
+        """``(C, V)`` bool: every position after the first and every segment between them
+        is admissible (the first move is checked by :meth:`moves`)."""
+        w, region = self.m.world, self.m.uav.region
+        later = paths[:, :, 1:]
+        ok = w.in_area(later) & ~w.in_obstacle(later) & ~w.segment_blocked(paths[:, :, :-1], later)
+        if region is not None:
+            ok &= region.contains(later)
+        return ok.all(axis=-1)
+
+    def scores(self, paths: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
+        """``(P,)`` summed covariance traces along ``paths (P, H, >=2)`` for beliefs
+        ``mean (M, 6)``, ``cov (M, 6, 6)`` (module docstring)."""
+        m0 = mean[:, HORIZONTAL]  # (M, 4)
+        p = np.broadcast_to(cov[:, HORIZONTAL][:, :, HORIZONTAL], (len(paths),) + (len(mean), 4, 4)).copy()
+        total = np.zeros(len(paths))
+        for k in range(self.horizon):  # horizon <= a few tens: the paths, targets and states are vectorised
+            if k:
+                p = self.a @ p @ self.a.T + self.q
+            centre = m0[:, :2] + k * self.dt * m0[:, 2:]  # (M, 2) constant-velocity mean
+            d = centre[None, :, :] - paths[:, k, None, :2]  # (P, M, 2)
+            r2 = np.maximum((d**2).sum(-1), MIN_RANGE_M**2)
+            h = np.stack([d[..., 1] / r2, -d[..., 0] / r2], -1)  # (P, M, 2)
+            ph = p[..., :2] @ h[..., None]  # (P, M, 4, 1): P h^T (h is zero on the velocities)
+            s = (h[..., None, :] @ ph[..., :2, :])[..., 0, 0] + self.noise  # (P, M)
+            p = p - (ph @ ph.transpose(0, 1, 3, 2)) / s[..., None, None]
+            total += np.trace(p, axis1=2, axis2=3).sum(axis=1)
+        return total
+
+    def choose(self, belief) -> tuple[np.ndarray, np.ndarray, int]:
+        """The candidates, each one's best path score (``inf``: no admissible path) and the
+        index of the best; ties go to the lowest index, as in Eq. (13)."""
+        cands, ok = self.moves()
+        best = np.full(len(cands), np.inf)
+        if ok.any():
+            paths = self.paths(cands[ok])
+            fine = self.path_admissible(paths)  # (C', V); V = 0 ("stay") is always fine
+            mean, cov = belief.moments()
+            score = np.full(fine.shape, np.inf)
+            score[fine] = self.scores(paths[fine], mean, cov)
+            best[ok] = score.min(axis=1)
+        return cands, best, int(np.argmin(best))
