@@ -237,6 +237,46 @@ def test_warm_start_from_a_two_step_plan_at_the_shortest_horizon(tmp_path):
     assert warm.objective == pytest.approx(cold.objective, rel=2 * m.guidance.gap)
 
 
+def _generated(seed, tmp_path):
+    from uavsim.worldgen import generate, mission_toml, world_toml
+
+    gen = dataclasses.replace(generate(np.random.default_rng(seed), seed % 16, 1 + seed % 8), name=f"gen-s{seed}",
+                              seed=seed)
+    (tmp_path / "w.world.toml").write_text(world_toml(gen))
+    (tmp_path / "w.toml").write_text(mission_toml(gen, "w.world.toml"))
+    return load_mission(tmp_path / "w.toml")
+
+
+def test_a_start_against_two_walls_escapes_them_before_avoiding_them(tmp_path):
+    """Generated world 37 (``benchmarks/worlds.py``), a filter estimate of T5 between two
+    walls whose first planned point lies in both margins: every single step can be outside
+    them but not all steps at once, so P1 is infeasible (the closed loop used to fly the
+    previous plan, through the walls).  Dropping the two walls for the first 1, then 2
+    steps gives a plan that avoids them from step 4, and the independent check (raw
+    cuboids, points and segments) finds nothing from there on."""
+    m = _generated(37, tmp_path)
+    g = Guidance(m.world, m.dynamics, m.guidance)
+    t = m.targets[4]
+    start = np.array([1152.78, 64.64, 0.0, 1.24, -3.52, 0.0])
+    plan = g.plan(start, t.cov0, m.world.goals[t.goal].centroid, step=10)
+    assert plan.ok and plan.message == "start inside the margin of 'shield1', 'shield3': avoided from step 4"
+    p = m.world.on_ground(plan.positions[3:])  # positions[k] is step k + 1: steps 4..T
+    assert not m.world.in_obstacle(p).any() and not m.world.segment_blocked(p[:-1], p[1:]).any()
+
+
+def test_an_estimate_outside_the_area_is_planned_from_inside(paper_guidance):
+    """An estimate 8 m east of the area's edge (the truth cannot be there): no plan of P1
+    starts there, so the re-plan starts from the nearest point inside and says so, rather
+    than flying the previous plan from outside."""
+    t = MISSION.targets[2]
+    outside = np.array([MISSION.world.area_hi[0] + 8.0, 700.0, 0.0, 2.0, 0.0, 0.0])
+    plan = paper_guidance.replan(outside, t.cov0, GOAL, None, 0)
+    assert plan.ok and plan.status in ("optimal", "feasible")
+    assert plan.message.startswith("planned from the nearest start within the limits (estimate at (1008.0, 700.0) m "
+                                   "is outside the area)")
+    assert np.all(plan.positions[1:, 0] <= MISSION.world.area_hi[0])  # step 1 is fixed by the start
+
+
 def test_deterministic(paper_guidance):
     """Two separately built solvers (no shared cache) give the identical plan; a repeated
     cold call returns the memoised plan."""

@@ -3,8 +3,8 @@
 from dataclasses import replace
 
 import numpy as np
-import pytest
 
+from uavsim.belief.particle import ParticleBelief
 from uavsim.belief.traces import gaussian_traces
 from uavsim.config import load_mission
 from uavsim.pcrlb import information_reduction_factor
@@ -14,14 +14,10 @@ from uavsim.uav import POLICIES, Lookahead, LookaheadConfig, make_policy
 from .conftest import PAPER
 
 
-class Moments:
-    """A belief that only knows its moments (what the lookahead reads)."""
-
-    def __init__(self, mean, cov):
-        self.mean, self.cov = mean, cov
-
-    def moments(self):
-        return self.mean, self.cov
+def belief(m, n=2000):
+    """The mission's prior as a particle belief."""
+    return ParticleBelief(np.random.default_rng(5), np.array([t.mean0 for t in m.targets]),
+                          np.array([t.cov0 for t in m.targets]), n, 0.5, 0.0, tuple(t.name for t in m.targets))
 
 
 def policy(horizon, **mission_changes):
@@ -30,29 +26,36 @@ def policy(horizon, **mission_changes):
     return make_policy("lookahead", m), m
 
 
-def belief(m):
-    return Moments(np.array([t.mean0 for t in m.targets]), np.array([t.cov0 for t in m.targets]))
-
-
 def test_registered_and_read_from_the_mission():
     assert POLICIES["lookahead"] is Lookahead
     assert load_mission(PAPER).planner.lookahead.horizon == LookaheadConfig.horizon
 
 
-def test_horizon_one_is_eq13_on_gaussian_beliefs():
-    """With one step the path score is Eq. (13) for Gaussian beliefs: the trace after one
+def test_horizon_one_is_the_optimized_policy():
+    """With one step the score is the first step's term alone: Eq. (13) on the belief."""
+    pol, m = policy(1)
+    b = belief(m)
+    cands, scores, best = pol.choose(b)
+    _, want, want_best = make_policy("optimized", m).choose(b)
+    np.testing.assert_array_equal(scores, want)
+    assert best == want_best
+
+
+def test_one_step_of_the_recursion_is_eq13_on_gaussian_beliefs():
+    """One step of the recursion is Eq. (13) for Gaussian beliefs: the trace after one
     noise-free bearing, linearised at the mean (:func:`gaussian_traces`), here on
     [x, y, vx, vy] and with the noise sigma^2 / q2 of a scan with misses and clutter."""
     pol, m = policy(1)
     b = belief(m)
     cands, ok = pol.moves()
-    got = pol.scores(pol.paths(cands)[:, 0], *b.moments())
+    mean, cov = b.moments()
+    got = pol.scores(pol.paths(cands)[:, 0], mean, cov)
     q2 = information_reduction_factor(m.sensor.sigma, m.sensor.p_detect, m.sensor.clutter_rate)
-    idx = np.ix_(range(len(b.mean)), HORIZONTAL, HORIZONTAL)
-    mean4 = np.zeros_like(b.mean)
-    mean4[:, :2] = b.mean[:, :2]
-    cov6 = np.zeros_like(b.cov)
-    cov6[:, :4, :4] = b.cov[idx]  # [x, y, vx, vy] in the slots gaussian_traces reads as x, y, ...
+    mean4 = np.zeros_like(mean)
+    mean4[:, :2] = mean[:, :2]
+    cov6 = np.zeros_like(cov)
+    # [x, y, vx, vy] in the slots gaussian_traces reads as x, y, ...
+    cov6[:, :4, :4] = cov[np.ix_(range(len(mean)), HORIZONTAL, HORIZONTAL)]
     want = gaussian_traces(cands, mean4, cov6, m.sensor.sigma / np.sqrt(q2)).sum(axis=1)
     np.testing.assert_allclose(got, want, rtol=1e-12)
 
@@ -105,11 +108,14 @@ def test_choice_is_admissible_and_scores_only_admissible_moves():
     assert ok[best] and scores[best] == scores.min()
 
 
-def test_no_detections_gives_no_preference():
-    """p_D = 0: a scan carries no information (q2 = 0), so every admissible move scores the
-    same and the tie goes to "stay" (index 0), as in Eq. (13)."""
+def test_no_detections_leave_only_the_first_step():
+    """p_D = 0: later scans carry no information (q2 = 0), so every path adds the same
+    later terms and the choice is Eq. (13)'s."""
     m0 = load_mission(PAPER)
     pol, m = policy(4, sensor=replace(m0.sensor, p_detect=0.0))
-    _, scores, best = pol.choose(belief(m))
-    ok = np.isfinite(scores)
-    assert best == 0 and np.ptp(scores[ok]) == pytest.approx(0.0, abs=1e-9 * scores[0])
+    b = belief(m)
+    _, scores, best = pol.choose(b)
+    _, first, first_best = make_policy("optimized", m).choose(b)
+    ok = np.isfinite(first)
+    assert best == first_best
+    assert np.ptp(scores[ok] - first[ok]) <= 1e-9 * scores[ok].max()

@@ -71,6 +71,7 @@ from .qp import FixedFaceQP, QpSolution
 
 _STATUS = highspy.HighsModelStatus
 E_GRID = np.array([0.05, 0.2, 0.5, 1.0])  # initial tangent points, as fractions of |s_k|'s bound
+NO_PLAN_AT_ALL = "no plan meets the speed, force and area limits even without obstacles"
 ROUTES = 3  # topologically distinct shortest routes that seed the face choices of a first plan
 
 
@@ -186,18 +187,37 @@ class OuterApproximation:
         terms seed the cuts.  The
         solver keeps no other state: a solve depends on its arguments (and, only when the
         wall-clock cap stops it, on time).
+
+        A start inside or against an inflated obstacle can leave no collision-free plan
+        even where every single step could be outside it (the steps cannot all be at
+        once).  Then the obstacles within one step's travel of the first planned position
+        are dropped for the first 1, 2, 4, ... steps until a plan exists; the plan says
+        from which step it avoids them, as for :func:`.faces.stuck_pairs`.
         """
+        sol = self._solve(x0, goal, budget, warm, 0)
+        p1 = x0[:2] + self.reach.dt * x0[2:]
+        reach = self.reach.v_max * self.reach.dt
+        near = np.all((p1 >= self.geom.lo - reach) & (p1 <= self.geom.hi + reach), axis=1)  # (n,)
+        escape = 1
+        while sol.status == "infeasible" and sol.message != NO_PLAN_AT_ALL and near.any() and escape < self.shape[0]:
+            sol = self._solve(x0, goal, budget, warm, escape, near)
+            escape *= 2
+        return sol
+
+    def _solve(self, x0, goal, budget, warm, escape: int, near: np.ndarray | None = None) -> Solution:
+        """:meth:`solve` with the obstacles ``near (n,)`` dropped for the first ``escape`` steps."""
         b = np.broadcast_to(self.offsets[None], self.shape)  # face offsets of every step
         lo, hi = self.c.rows(np.r_[x0, goal])
         relax = self.qp.solve(lo, hi, np.ones(self.shape), relax=True)
         if relax is None:
-            return Solution("infeasible", np.inf, np.inf, np.inf, 0, None,
-                            "no plan meets the speed, force and area limits even without obstacles")
+            return Solution("infeasible", np.inf, np.inf, np.inf, 0, None, NO_PLAN_AT_ALL)
         if self.shape[1] == 0:  # no obstacle on the ground: P1 is the QP
             relax = self._reference(lo, hi, relax)
             return Solution("optimal", relax.f, relax.f, 0.0, 0, relax)
         face_lo, face_hi = self.reach.face_bounds(x0, goal)
         stuck = stuck_pairs(face_hi, b)
+        if escape:
+            stuck[:escape, near] = True
         if not np.any((inside(relax.x[2:, :2], b) > 1e-7) & ~stuck):  # the obstacle-free optimum is clear
             y = choose_faces(relax.x[2:, :2], b, *prune(face_lo, face_hi, b, stuck))
             plan = self._reference(lo, hi, replace(relax, y=y))

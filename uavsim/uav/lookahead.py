@@ -20,6 +20,9 @@ with ``d`` the predicted mean minus ``s_k`` and ``q2`` the information reduction
 of missed detections and clutter (:func:`uavsim.pcrlb.information_reduction_factor`).
 The path's score is ``sum_k sum_j tr P_{j,k}`` over its ``horizon`` steps: the Eq. (13)
 criterion (summed covariance traces) accumulated over the path instead of taken once.
+The first step's term is Eq. (13) itself, the belief's own pseudo-posterior traces
+(:meth:`uavsim.belief.Belief.traces`; particles for the particle filter), so with
+``horizon = 1`` the policy is ``optimized``; the later terms come from the recursion.
 
 Choices (documented, not from a paper): the predicted means move at constant velocity
 (``p <- p + dt v``; the targets' guidance forces are not known to the UAV), the range in
@@ -82,9 +85,9 @@ class Lookahead(GridOptimizer):
             ok &= region.contains(later)
         return ok.all(axis=-1)
 
-    def scores(self, paths: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    def scores(self, paths: np.ndarray, mean: np.ndarray, cov: np.ndarray, first: int = 0) -> np.ndarray:
         """``(P,)`` summed covariance traces along ``paths (P, H, >=2)`` for beliefs
-        ``mean (M, 6)``, ``cov (M, 6, 6)`` (module docstring)."""
+        ``mean (M, 6)``, ``cov (M, 6, 6)`` (module docstring), from step ``first`` on."""
         m0 = mean[:, HORIZONTAL]  # (M, 4)
         p = np.broadcast_to(cov[:, HORIZONTAL][:, :, HORIZONTAL], (len(paths),) + (len(mean), 4, 4)).copy()
         total = np.zeros(len(paths))
@@ -98,7 +101,8 @@ class Lookahead(GridOptimizer):
             ph = p[..., :2] @ h[..., None]  # (P, M, 4, 1): P h^T (h is zero on the velocities)
             s = (h[..., None, :] @ ph[..., :2, :])[..., 0, 0] + self.noise  # (P, M)
             p = p - (ph @ ph.transpose(0, 1, 3, 2)) / s[..., None, None]
-            total += np.trace(p, axis1=2, axis2=3).sum(axis=1)
+            if k >= first:
+                total += np.trace(p, axis1=2, axis2=3).sum(axis=1)
         return total
 
     def choose(self, belief) -> tuple[np.ndarray, np.ndarray, int]:
@@ -110,7 +114,8 @@ class Lookahead(GridOptimizer):
             paths = self.paths(cands[ok])
             fine = self.path_admissible(paths)  # (C', V); V = 0 ("stay") is always fine
             mean, cov = belief.moments()
+            now = belief.traces(cands[ok], self.sensor.sigma).sum(axis=1)  # (C',) Eq. (13) itself
             score = np.full(fine.shape, np.inf)
-            score[fine] = self.scores(paths[fine], mean, cov)
+            score[fine] = np.broadcast_to(now[:, None], fine.shape)[fine] + self.scores(paths[fine], mean, cov, 1)
             best[ok] = score.min(axis=1)
         return cands, best, int(np.argmin(best))
