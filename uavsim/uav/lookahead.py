@@ -48,7 +48,7 @@ MIN_RANGE_M = 1.0
 class LookaheadConfig:
     """``horizon``: steps scored per path (1 = the first move only)."""
 
-    horizon: int = 8
+    horizon: int = 16
 
 
 class Lookahead(GridOptimizer):
