@@ -85,19 +85,19 @@ def test_two_steps_equal_the_information_recursion():
     np.testing.assert_allclose(pol.scores(path, mean, cov), [want], rtol=1e-9)
 
 
-def test_paths_through_an_obstacle_are_pruned():
-    """From 30 m west of the paper world's first obstacle, the continuations heading east
-    cross it within 8 steps of 20 m: pruned; staying is always admissible."""
+def test_paths_stop_before_an_obstacle():
+    """From 30 m west of the paper world's first obstacle, the continuation heading east
+    (20 m steps) would enter it at its 2nd step: the path stays at its 1st (10 m short of
+    the wall) from then on; no path enters or crosses an obstacle."""
     pol, m = policy(8)
     w = m.world
     lo, hi = w.obstacle_lo[0], w.obstacle_hi[0]
     pol.position = np.array([lo[0] - 30.0, (lo[1] + hi[1]) / 2, m.uav.altitude])
-    paths = pol.paths(pol.position[None])
-    ok = pol.path_admissible(paths)[0]
+    paths = pol.stop_at_limits(pol.paths(pol.position[None]))[0]  # (V, H, 3)
     east = np.argmin(np.abs(pol.continuations[1:, 1])) + 1  # the continuation along +x
-    assert ok[0] and not ok[east]
-    pts = paths[0, ok]
-    assert not w.in_obstacle(pts).any() and not w.segment_blocked(pts[:, :-1], pts[:, 1:]).any()
+    np.testing.assert_allclose(paths[east, 1:, 0], lo[0] - 10.0)
+    assert not w.in_obstacle(paths).any() and not w.segment_blocked(paths[:, :-1], paths[:, 1:]).any()
+    np.testing.assert_array_equal(paths[0], np.repeat(pol.position[None], 8, axis=0))  # "stay" stays
 
 
 def test_choice_is_admissible_and_scores_only_admissible_moves():

@@ -4,9 +4,11 @@ The paper's UAV (004_22b452551a772073.txt Eq. 13) looks one step ahead.  This po
 scores every admissible first move of Eq. (3) followed by ``horizon - 1`` steps of one
 straight continuation (staying, or the largest grid move ``N_r Dr`` in one of the
 ``N_th`` grid directions, repeated), and flies the first move of the best path; the
-next step it decides again (receding horizon).  A path is pruned, like a single move in
-Eq. (3), where any of its positions leaves the area or the operating region or lies in
-an obstacle, or one of its segments crosses an obstacle.
+next step it decides again (receding horizon).  A path stops (stays put) at its last
+position before one that, like a single move in Eq. (3), leaves the area or the
+operating region, lies in an obstacle or is reached through one.  (Pruning such paths
+instead left little but "stay" in a small world: on a generated 950 x 530 m world the
+policy's RMSE was 19% above ``optimized``'s.)
 
 **Score.**  Each target's predicted belief is summarised by its moments on
 ``[x, y, vx, vy]`` (:data:`uavsim.targets.HORIZONTAL`).  Along a path the covariance
@@ -75,15 +77,19 @@ class Lookahead(GridOptimizer):
         z = np.broadcast_to(cands[:, None, None, 2:], xy.shape[:-1] + (1,))
         return np.concatenate([xy, z], axis=-1)
 
-    def path_admissible(self, paths: np.ndarray) -> np.ndarray:
-        """``(C, V)`` bool: every position after the first and every segment between them
-        is admissible (the first move is checked by :meth:`moves`)."""
+    def stop_at_limits(self, paths: np.ndarray) -> np.ndarray:
+        """``paths (C, V, H, 3)`` with every position from the first inadmissible one on
+        (outside the area or region, in an obstacle, or reached through one) replaced by
+        the last admissible one: the UAV stops there.  The first move is checked by
+        :meth:`moves`."""
         w, region = self.m.world, self.m.uav.region
         later = paths[:, :, 1:]
         ok = w.in_area(later) & ~w.in_obstacle(later) & ~w.segment_blocked(paths[:, :, :-1], later)
         if region is not None:
             ok &= region.contains(later)
-        return ok.all(axis=-1)
+        last = np.logical_and.accumulate(ok, axis=-1).sum(axis=-1)  # (C, V) admissible steps after the first
+        idx = np.minimum(np.arange(paths.shape[2]), last[..., None])  # (C, V, H)
+        return np.take_along_axis(paths, idx[..., None], axis=2)
 
     def scores(self, paths: np.ndarray, mean: np.ndarray, cov: np.ndarray, first: int = 0) -> np.ndarray:
         """``(P,)`` summed covariance traces along ``paths (P, H, >=2)`` for beliefs
@@ -111,11 +117,9 @@ class Lookahead(GridOptimizer):
         cands, ok = self.moves()
         best = np.full(len(cands), np.inf)
         if ok.any():
-            paths = self.paths(cands[ok])
-            fine = self.path_admissible(paths)  # (C', V); V = 0 ("stay") is always fine
+            paths = self.stop_at_limits(self.paths(cands[ok]))  # (C', V, H, 3)
             mean, cov = belief.moments()
             now = belief.traces(cands[ok], self.sensor.sigma).sum(axis=1)  # (C',) Eq. (13) itself
-            score = np.full(fine.shape, np.inf)
-            score[fine] = np.broadcast_to(now[:, None], fine.shape)[fine] + self.scores(paths[fine], mean, cov, 1)
-            best[ok] = score.min(axis=1)
+            later = self.scores(paths.reshape(-1, *paths.shape[2:]), mean, cov, 1).reshape(paths.shape[:2])
+            best[ok] = now + later.min(axis=1)
         return cands, best, int(np.argmin(best))
