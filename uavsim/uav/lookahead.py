@@ -7,8 +7,7 @@ straight continuation (staying, or the largest grid move ``N_r Dr`` in one of th
 next step it decides again (receding horizon).  A path stops (stays put) at its last
 position before one that, like a single move in Eq. (3), leaves the area or the
 operating region, lies in an obstacle or is reached through one.  (Pruning such paths
-instead left little but "stay" in a small world: on a generated 950 x 530 m world the
-policy's RMSE was 19% above ``optimized``'s.)
+instead, the first version, left little but "stay" near the area's edges.)
 
 **Score.**  Each target's predicted belief is summarised by its moments on
 ``[x, y, vx, vy]`` (:data:`uavsim.targets.HORIZONTAL`).  Along a path the covariance
