@@ -11,13 +11,10 @@ instead, the first version, left little but "stay" near the area's edges.)
 
 **Score.**  Each target's predicted belief is summarised by its moments on
 ``[x, y, vx, vy]`` (:data:`uavsim.targets.HORIZONTAL`).  Along a path the covariance
-follows the information recursion of the closed-loop bound (:mod:`uavsim.pcrlb`), in
-covariance form: ``P <- A P A^T + Q`` between scans and a bearing scan from the UAV's
-position ``s_k`` adds ``q2 h^T h / sigma^2``, i.e. the rank-one update
-
-    P <- P - P h^T h P / (h P h^T + sigma^2 / q2),   h = (dy, -dx, 0, 0) / r^2,
-
-with ``d`` the predicted mean minus ``s_k`` and ``q2`` the information reduction factor
+follows the information recursion of the closed-loop bound, in covariance form
+(:func:`uavsim.pcrlb.pcrlb_step`): ``P <- A P A^T + Q`` between scans, and a bearing scan
+from the UAV's position ``s_k`` adds the information ``q2 h^T h / sigma^2`` on (x, y),
+``h = (dy, -dx) / r^2``, with ``d`` the predicted mean minus ``s_k`` and ``q2`` the information reduction factor
 of missed detections and clutter (:func:`uavsim.pcrlb.information_reduction_factor`).
 The path's score is ``sum_k sum_j tr P_{j,k}`` over its ``horizon`` steps: the Eq. (13)
 criterion (summed covariance traces) accumulated over the path instead of taken once.
@@ -38,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..mission import Mission
-from ..pcrlb import information_reduction_factor
+from ..pcrlb import information_reduction_factor, pcrlb_step
 from ..targets import HORIZONTAL
 from .grid import GridOptimizer, move_offsets
 
@@ -66,8 +63,7 @@ class Lookahead(GridOptimizer):
         self.a = dyn.a[np.ix_(HORIZONTAL, HORIZONTAL)]
         self.q = dyn.q[np.ix_(HORIZONTAL, HORIZONTAL)]
         self.dt = dyn.dt
-        q2 = information_reduction_factor(s.sigma, s.p_detect, s.clutter_rate)
-        self.noise = s.sigma**2 / q2 if q2 > 0 else np.inf
+        self.gain = information_reduction_factor(s.sigma, s.p_detect, s.clutter_rate) / s.sigma**2  # q2 / sigma^2
 
     def paths(self, cands: np.ndarray) -> np.ndarray:
         """``(C, V, H, 3)`` positions: first move c, then continuation v repeated."""
@@ -94,20 +90,18 @@ class Lookahead(GridOptimizer):
         """``(P,)`` summed covariance traces along ``paths (P, H, >=2)`` for beliefs
         ``mean (M, 6)``, ``cov (M, 6, 6)`` (module docstring), from step ``first`` on."""
         m0 = mean[:, HORIZONTAL]  # (M, 4)
-        p = np.broadcast_to(cov[:, HORIZONTAL][:, :, HORIZONTAL], (len(paths),) + (len(mean), 4, 4)).copy()
-        total = np.zeros(len(paths))
+        n, m = len(paths), len(mean)
+        p = np.broadcast_to(cov[:, HORIZONTAL][:, :, HORIZONTAL], (n, m, 4, 4)).reshape(-1, 4, 4)
+        still = (np.eye(4), np.zeros((4, 4)))  # step 0: the belief is already predicted
+        total = np.zeros(n)
         for k in range(self.horizon):  # horizon <= a few tens: the paths, targets and states are vectorised
-            if k:
-                p = self.a @ p @ self.a.T + self.q
             centre = m0[:, :2] + k * self.dt * m0[:, 2:]  # (M, 2) constant-velocity mean
             d = centre[None, :, :] - paths[:, k, None, :2]  # (P, M, 2)
-            r2 = np.maximum((d**2).sum(-1), MIN_RANGE_M**2)
-            h = np.stack([d[..., 1] / r2, -d[..., 0] / r2], -1)  # (P, M, 2)
-            ph = p[..., :2] @ h[..., None]  # (P, M, 4, 1): P h^T (h is zero on the velocities)
-            s = (h[..., None, :] @ ph[..., :2, :])[..., 0, 0] + self.noise  # (P, M)
-            p = p - (ph @ ph.transpose(0, 1, 3, 2)) / s[..., None, None]
+            h = np.stack([d[..., 1], -d[..., 0]], -1) / np.maximum((d**2).sum(-1), MIN_RANGE_M**2)[..., None]
+            info = self.gain * h[..., :, None] * h[..., None, :]  # (P, M, 2, 2) q2 h^T h / sigma^2
+            p = pcrlb_step(p, *((self.a, self.q) if k else still), info.reshape(-1, 2, 2))
             if k >= first:
-                total += np.trace(p, axis1=2, axis2=3).sum(axis=1)
+                total += np.trace(p, axis1=1, axis2=2).reshape(n, m).sum(axis=1)
         return total
 
     def choose(self, belief) -> tuple[np.ndarray, np.ndarray, int]:
