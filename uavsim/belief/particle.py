@@ -25,6 +25,7 @@ A degenerate update (every particle has zero likelihood, e.g. a missed detection
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -60,48 +61,86 @@ def log_likelihood(bearings: np.ndarray, valid: np.ndarray, expected: np.ndarray
 def _log_likelihood(bearings: np.ndarray, valid: np.ndarray, expected: np.ndarray, sensor: Sensor) -> np.ndarray:
     """:func:`log_likelihood` for bearings and ``expected`` already in ``[-pi, pi]``.
 
-    The ``1 + K`` association hypotheses ("all clutter", "column k is the target") lie on
-    a leading axis, so the log-sum-exp over them is a few elementwise passes over
-    ``(M, N)`` arrays (a reduction over a short last axis is several times slower).
-    With both angles in ``[-pi, pi]`` the wrapped residual has ``|r| = pi - |pi - |d||``,
-    ``d = l - phi``: no ``mod``.
+    Each target's set has ``1 + n`` association hypotheses: "all clutter", with log
+    weight ``log_miss`` (:func:`_hypothesis_logs`), and "column k is the target", with
+    ``log_det - log(sigma sqrt(2 pi)) - r_k^2 / (2 sigma^2)``.  Their log-sum-exp is taken
+    with the hypotheses on a leading axis ``(K, M, N)`` (a reduction over a short last axis
+    is several times slower), in one of two ways:
 
-    The log-sum-exp is shifted once per target by its largest hypothesis constant when
-    the "all clutter" term (the same for every particle) keeps each particle's shifted
-    sum above ``e^-SHIFT_GAP``: true whenever ``p_D < 1``, ``Lambda > 0`` and the
-    constants are within 600 of each other, and it saves five passes over the particles.
-    Otherwise (``p_D = 1`` or no clutter) each particle is shifted by its own largest
-    hypothesis, so its sum is at least 1.  Shifted terms below ``EXP_FLOOR`` are raised
-    to it before ``exp``: next to a sum of at least ``e^-600`` an ``e^-700`` and a 0 give
-    the same double, and ``exp`` of an underflowing argument runs several times slower.
+    * :func:`_shared_shift` when ``p_D < 1`` and ``Lambda > 0`` and the detection and
+      clutter weights are within ``e^SHIFT_GAP`` of each other (the paper's sensors): one
+      shift for every particle;
+    * :func:`_particle_shift` otherwise (``p_D = 1`` or no clutter, where a particle's
+      only finite hypotheses may all be tiny): each particle shifted by its own largest.
     """
     lam, pd, sig = sensor.clutter_rate, sensor.p_detect, sensor.sigma
-    log_miss, log_det = _hypothesis_logs(valid.sum(axis=1), lam, pd)  # (M,) each
-    # per hypothesis (K, M): log p_D (L / 2pi)^(n-1) / (sigma sqrt(2 pi)); -inf for padding
-    const = np.where(valid.T, log_det - math.log(sig) - 0.5 * LOG_2PI, -np.inf)
-    terms = np.subtract(expected, bearings.T[:, :, None])  # (K, M, N) d = l - phi in [-2pi, 2pi]
+    n = np.count_nonzero(valid, axis=1)  # (M,) set sizes
+    terms = _residual_exponents(bearings, expected, sig)
+    if 0 < pd < 1 and lam > 0:
+        # log weight of "column k is the target" over "all clutter", the same for every n >= 1
+        log_clutter = math.log(lam) - LOG_2PI
+        ratio = math.log(pd) - math.log1p(-pd) - log_clutter - math.log(sig) - 0.5 * LOG_2PI
+        if abs(ratio) < SHIFT_GAP:
+            out = _shared_shift(terms, valid, ratio)
+            # + log_miss = log (1 - p_D) (L / 2pi)^n, + ratio where n > 0, - Lambda
+            base = math.log1p(-pd) - lam
+            out += np.where(n > 0, n * log_clutter + (ratio + base), base)[:, None]
+            return out
+    log_miss, log_det = _hypothesis_logs(n, lam, pd)  # (M,) each
+    const = np.where(valid.T, log_det - math.log(sig) - 0.5 * LOG_2PI, -np.inf)  # (K, M)
+    return _particle_shift(terms, const, log_miss) - lam
+
+
+def _residual_exponents(bearings: np.ndarray, expected: np.ndarray, sig: float) -> np.ndarray:
+    """``-r^2 / (2 sigma^2)`` (K, M, N) for the wrapped residuals of ``bearings (M, K)``
+    and ``expected (M, N)``, both in ``[-pi, pi]``: then ``d = l - phi`` lies in
+    ``[-2 pi, 2 pi]`` and the wrapped residual has ``|r| = pi - |pi - |d||`` (no ``mod``)."""
+    terms = np.subtract(expected, bearings.T[:, :, None])  # (K, M, N) d = l - phi
     np.abs(terms, out=terms)
     np.subtract(np.pi, terms, out=terms)
     np.abs(terms, out=terms)
     np.subtract(np.pi, terms, out=terms)  # |r|
     np.square(terms, out=terms)
     terms *= -0.5 / sig**2
-    dead = np.isneginf(log_miss) & np.isneginf(log_det)  # (M,) no hypothesis can explain the set
-    top = np.maximum(const.max(axis=0, initial=-np.inf), log_miss)  # (M,) largest constant
-    if np.isfinite(log_miss).all() and np.all(top - log_miss < SHIFT_GAP):
-        top = top[:, None]  # one shift per target: "all clutter" keeps each sum >= e^-SHIFT_GAP
-        terms += (const.T - top).T[:, :, None]
-    else:  # one shift per particle: its largest hypothesis
-        terms += const[:, :, None]
-        top = np.maximum(terms.max(axis=0, initial=-np.inf), log_miss[:, None])  # (M, N)
-        top[dead] = 0.0
-        terms -= top
+    return terms
+
+
+def _shared_shift(terms: np.ndarray, valid: np.ndarray, ratio: float) -> np.ndarray:
+    """``log(e^-ratio [n > 0] + sum_k exp(terms_k))`` (M, N) from ``terms (K, M, N)``
+    (overwritten), for ``|ratio| < SHIFT_GAP``; a target with ``n = 0`` gets 0.
+
+    Eq. (10) divided by its "all clutter" weight is ``1 + sum_k e^(ratio - r_k^2 /
+    2 sigma^2)`` = ``e^ratio (e^-ratio + sum_k ...)``: the first term bounds the sum below
+    by ``e^-SHIFT_GAP``, so exponents under ``EXP_FLOOR`` are raised to it (an ``e^-700``
+    and a 0 then give the same double, and ``exp`` of an underflowing argument runs
+    several times slower) and nothing overflows."""
+    padded = valid.shape[1] == 0 or not valid.all()
+    if padded:
+        terms[~valid.T] = -np.inf
+    np.maximum(terms, EXP_FLOOR, out=terms)
+    total = np.exp(terms, out=terms).sum(axis=0)
+    total += math.exp(-ratio)
+    out = np.log(total, out=total)
+    if padded:
+        out[~valid.any(axis=1)] = 0.0
+    return out
+
+
+def _particle_shift(terms: np.ndarray, const: np.ndarray, log_miss: np.ndarray) -> np.ndarray:
+    """``log(e^log_miss + sum_k e^(const_k + terms_k))`` (M, N), each particle shifted by
+    its largest hypothesis, so its sum is at least 1 (``-inf`` where no hypothesis can
+    explain the set).  ``terms (K, M, N)`` is overwritten; ``const (K, M)``, ``-inf`` for
+    padding; ``log_miss (M,)``."""
+    dead = np.isneginf(log_miss) & np.isneginf(const).all(axis=0)  # (M,) nothing explains the set
+    terms += const[:, :, None]
+    top = np.maximum(terms.max(axis=0, initial=-np.inf), log_miss[:, None])  # (M, N)
+    top[dead] = 0.0
+    terms -= top
     np.maximum(terms, EXP_FLOOR, out=terms)
     total = np.exp(terms, out=terms).sum(axis=0)
     total += np.exp(np.maximum(log_miss[:, None] - top, EXP_FLOOR))
     out = np.log(total, out=total)
     out += top
-    out -= lam
     out[dead] = -np.inf
     return out
 
@@ -164,25 +203,31 @@ class ParticleFilter:
         The noise goes through two buffers kept between calls: fresh temporaries of this
         size cost page faults on every step (the allocator returns them to the system)."""
         x = self.particles @ a.T
-        x += (controls @ b.T)[:, None, :]
         noise = rng.standard_normal(out=_scratch(self._work, "z", x.shape))
         x += np.matmul(noise, q_chol.T, out=_scratch(self._work, "noise", x.shape))
+        _add_to_rows(x, controls @ b.T)
         self.particles = x
 
     def update(self, loglik: np.ndarray) -> np.ndarray:
         """Eq. (9b) with ``loglik (M, N)``.  Returns (M,) bool: the update was degenerate
         (no particle explains the measurements) and was skipped for that target."""
         logw = self.logw + loglik
-        norm = _logsumexp_rows(logw)
-        bad = ~np.isfinite(norm)
-        logw -= np.where(bad, 0.0, norm)[:, None]
-        self.logw = np.where(bad[:, None], self.logw, logw) if bad.any() else logw
+        top = logw.max(axis=1)  # (M,) not finite: every particle -inf (or a NaN)
+        bad = ~np.isfinite(top)
+        if bad.any():
+            top[bad] = 0.0
+        logw -= top[:, None]
+        shifted = np.maximum(logw, EXP_FLOOR)  # see _shared_shift: each sum is >= 1
+        logw -= np.log(np.exp(shifted, out=shifted).sum(axis=1))[:, None]
+        if bad.any():
+            logw[bad] = self.logw[bad]
+        self.logw = logw
         return bad
 
     def ess(self) -> np.ndarray:
         """(M,) effective sample size ``1 / sum w^2``."""
         w = self.weights
-        return 1.0 / np.einsum("mn,mn->m", w, w)
+        return 1.0 / (w[:, None, :] @ w[:, :, None])[:, 0, 0]
 
     def resample(self, rng: np.random.Generator, threshold: float, roughening: float = 0.0) -> np.ndarray:
         """Systematic resampling of the targets whose ESS fell below ``threshold * N``.
@@ -195,7 +240,8 @@ class ParticleFilter:
             return which
         idx = systematic_indices(rng, self.weights[which])
         rows = np.flatnonzero(which)
-        picked = np.take_along_axis(self.particles[rows], idx[:, :, None], axis=1)
+        flat = (idx + (rows * n)[:, None]).ravel()  # rows of the (M N, d) particle table
+        picked = self.particles.reshape(m * n, d).take(flat, axis=0).reshape(rows.size, n, d)
         if roughening > 0:
             # the spread E of the set before resampling: after a degenerate resampling the
             # picked particles may coincide, and their own spread would give no jitter
@@ -242,6 +288,21 @@ def weighted_moments(particles: np.ndarray, weights: np.ndarray, work: dict | No
     return mean, scaled @ centred.transpose(0, 2, 1)
 
 
+def _add_to_rows(x: np.ndarray, c: np.ndarray) -> None:
+    """``x (M, N, d) += c (M, d)`` on every row, through a wide view: ``k`` rows side by
+    side as ``(M, N / k, k d)`` against ``c`` tiled k times (numpy's broadcast along a last
+    axis of length d is three times slower).  ``k`` is the largest divisor of N up to 100."""
+    m, n, d = x.shape
+    k = _row_block(n)
+    wide = np.reshape(x, (m, n // k, k * d), copy=False)  # a view (x is contiguous)
+    wide += np.tile(c, k)[:, None, :]
+
+
+@functools.cache
+def _row_block(n: int) -> int:
+    return max(j for j in range(1, min(n, 100) + 1) if n % j == 0) if n else 1
+
+
 def _scratch(work: dict | None, name: str, shape: tuple[int, ...]) -> np.ndarray:
     """``work[name]`` if it has this shape, else a new float64 array (kept in ``work``)."""
     buf = None if work is None else work.get(name)
@@ -250,16 +311,6 @@ def _scratch(work: dict | None, name: str, shape: tuple[int, ...]) -> np.ndarray
         if work is not None:
             work[name] = buf
     return buf
-
-
-def _logsumexp_rows(a: np.ndarray) -> np.ndarray:
-    """``log sum_n exp(a[m, n])`` per row; a row without a finite maximum (all ``-inf``,
-    or a NaN or ``+inf`` in it) gives its maximum (so ``-inf``, NaN or ``+inf``)."""
-    top = a.max(axis=1)
-    ok = np.isfinite(top)
-    shifted = a - np.where(ok, top, 0.0)[:, None]
-    np.maximum(shifted, EXP_FLOOR, out=shifted)  # see _log_likelihood: the sum is >= 1
-    return np.where(ok, np.log(np.exp(shifted, out=shifted).sum(axis=1)) + top, top)
 
 
 def scan_loglik(scan: Scan, particles: np.ndarray, observer: np.ndarray, sensor: Sensor) -> np.ndarray:
