@@ -112,6 +112,29 @@ def kalman(mu, p, a, b, q, u, h, r, zs):
     return mu, p
 
 
+@pytest.mark.parametrize("correlated", [False, True])
+@pytest.mark.parametrize("n", [5000, 997])  # 997 is prime: the wide view is one row wide
+def test_predict_is_eq9a_with_the_generators_next_normals(correlated, n):
+    """Eq. (9a) ``x <- A x + B u + L z`` with z the generator's next (M, N, 6) normals,
+    for a diagonal Q (scaled in place) and a correlated one (the white-noise-acceleration
+    Q, a full Cholesky factor: matrix product).  Only rounding may differ."""
+    dt = 1.0
+    q = np.diag([30.0, 30.0, 1e-10, 3.0, 3.0, 1e-10])
+    if correlated:
+        block = np.array([[dt**3 / 3, dt**2 / 2], [dt**2 / 2, dt]]) * 4.0
+        q = np.kron(block, np.eye(3)) + 1e-10 * np.eye(6)
+    dyn = Dynamics(dt, 0.2, 1300.0, q)
+    assert np.any(np.tril(dyn.q_chol, -1)) == correlated  # the two paths of predict
+    rng = np.random.default_rng(11)
+    x0 = rng.normal(size=(2, n, 6)) * 50.0
+    u = rng.uniform(-3000, 3000, (2, 3))
+    pf = ParticleFilter(x0.copy(), np.full((2, n), -np.log(n)))
+    pf.predict(np.random.default_rng(12), dyn.a, dyn.b, dyn.q_chol, u)
+    z = np.random.default_rng(12).standard_normal((2, n, 6))
+    want = x0 @ dyn.a.T + (u @ dyn.b.T)[:, None, :] + z @ dyn.q_chol.T
+    np.testing.assert_allclose(pf.particles, want, rtol=1e-12, atol=1e-9)
+
+
 def test_particle_filter_matches_kalman_on_linear_gaussian_toy():
     """Eq. (1) dynamics, measurement z = (p_x, p_y) + N(0, 25 I), ten steps.  With N
     particles and ESS >= N / 2 after each resampling, one step's Monte-Carlo error has

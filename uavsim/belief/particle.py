@@ -204,8 +204,11 @@ class ParticleFilter:
         size cost page faults on every step (the allocator returns them to the system)."""
         x = self.particles @ a.T
         noise = rng.standard_normal(out=_scratch(self._work, "z", x.shape))
-        x += np.matmul(noise, q_chol.T, out=_scratch(self._work, "noise", x.shape))
-        _add_to_rows(x, controls @ b.T)
+        if np.any(np.tril(q_chol, -1)):
+            x += np.matmul(noise, q_chol.T, out=_scratch(self._work, "noise", x.shape))
+            _affine_rows(x, None, controls @ b.T)
+        else:  # a diagonal Q (every mission file's): L z is a scaling, done with B u in one wide pass
+            x += _affine_rows(noise, np.diagonal(q_chol), controls @ b.T)
         self.particles = x
 
     def update(self, loglik: np.ndarray) -> np.ndarray:
@@ -288,14 +291,18 @@ def weighted_moments(particles: np.ndarray, weights: np.ndarray, work: dict | No
     return mean, scaled @ centred.transpose(0, 2, 1)
 
 
-def _add_to_rows(x: np.ndarray, c: np.ndarray) -> None:
-    """``x (M, N, d) += c (M, d)`` on every row, through a wide view: ``k`` rows side by
-    side as ``(M, N / k, k d)`` against ``c`` tiled k times (numpy's broadcast along a last
-    axis of length d is three times slower).  ``k`` is the largest divisor of N up to 100."""
+def _affine_rows(x: np.ndarray, scale: np.ndarray | None, shift: np.ndarray) -> np.ndarray:
+    """``x (M, N, d) <- x * scale (d,) + shift (M, d)`` on every row, in place (``scale``
+    None: no scaling), through a wide view: ``k`` rows side by side as ``(M, N / k, k d)``
+    against ``scale`` and ``shift`` tiled k times (numpy's broadcast along a last axis of
+    length d is three times slower).  ``k`` is the largest divisor of N up to 100."""
     m, n, d = x.shape
     k = _row_block(n)
     wide = np.reshape(x, (m, n // k, k * d), copy=False)  # a view (x is contiguous)
-    wide += np.tile(c, k)[:, None, :]
+    if scale is not None:
+        wide *= np.tile(scale, k)
+    wide += np.tile(shift, k)[:, None, :]
+    return x
 
 
 @functools.cache
