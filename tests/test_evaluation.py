@@ -124,6 +124,21 @@ def test_a_precise_sensor_beats_the_baseline_by_far():
     assert ratio < 0.1, ratio
 
 
+def test_a_planners_fingerprint_leaves_out_the_other_planners_settings():
+    """Changing the lookahead's horizon or a manoeuvre's size does not change trials of
+    `optimized` (they never read them), so its campaign folder still resumes; the
+    planner whose setting changed gets a new fingerprint (the manoeuvres share one
+    settings object, so a change to any of them reruns all four: conservative)."""
+    from uavsim.campaign import fingerprint
+
+    m = small()
+    other = small(**{"planner.lookahead.horizon_steps": 3, "planner.manoeuvres.circle_radius_m": 30.0,
+                     "planner.name": "circle"})
+    assert fingerprint(m, "optimized") == fingerprint(other, "optimized")
+    assert fingerprint(m, "lookahead") != fingerprint(other, "lookahead")
+    assert fingerprint(m, "circle") != fingerprint(other, "circle")
+
+
 def test_baseline_does_not_depend_on_sensor_or_planner_settings(tmp_path, capsys):
     """`compare` runs the baseline once for all planners and reports each planner's ratio;
     the clutter rate does not change the baseline's fingerprint."""

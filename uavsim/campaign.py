@@ -46,7 +46,7 @@ from .guidance import Guidance
 from .mission import Mission
 from .pcrlb import Bound, pcrlb_planned
 from .sim import STAGES, Simulation
-from .uav import BASELINE, make_policy
+from .uav import BASELINE, MANOEUVRES, make_policy
 
 FORMAT = 4  # trial-file layout; a folder written in another layout is not resumed
 
@@ -128,10 +128,18 @@ def _trial_task(mission: Mission, planner: str, index: int, seed: np.random.Seed
 def fingerprint(mission: Mission, planner: str = "") -> str:
     """SHA-256 of everything that determines a trial's result (not the trial count,
     which does not change trial k, nor where the file lives).  The baseline's trials do
-    not depend on the sensor, the UAV or the planner settings, which it leaves out."""
+    not depend on the sensor, the UAV or the planner settings, which it leaves out; a
+    planner's do not depend on the other planners' settings (nor on which planner the
+    mission file names), which it leaves out too."""
     mission = replace(mission, trials=0, path=Path("."), world_path=Path("."))
     if planner == BASELINE:
         mission = replace(mission, sensor=None, uav=None, planner=None, description="")
+    elif mission.planner is not None:
+        own = mission.planner
+        mission = replace(mission, planner=replace(
+            own, name=planner, manoeuvres=own.manoeuvres if planner in MANOEUVRES else None,
+            fixed_sensors=own.fixed_sensors if planner == "fixed-sensors" else None,
+            lookahead=own.lookahead if planner == "lookahead" else None))
     data = asdict(mission)
 
     def plain(o):
