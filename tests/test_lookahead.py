@@ -9,7 +9,7 @@ from uavsim.belief.traces import gaussian_traces
 from uavsim.config import load_mission
 from uavsim.pcrlb import information_reduction_factor
 from uavsim.targets import HORIZONTAL
-from uavsim.uav import POLICIES, Lookahead, LookaheadConfig, make_policy
+from uavsim.uav import POLICIES, Lookahead, LookaheadConfig, admissible, make_policy
 
 from .conftest import PAPER
 
@@ -41,33 +41,34 @@ def test_horizon_one_is_the_optimized_policy():
     assert best == want_best
 
 
-def test_one_step_of_the_recursion_is_eq13_on_gaussian_beliefs():
-    """One step of the recursion is Eq. (13) for Gaussian beliefs: the trace after one
+def test_one_scan_is_eq13_on_gaussian_beliefs():
+    """One scan of the recursion is Eq. (13) for Gaussian beliefs: the trace after one
     noise-free bearing, linearised at the mean (:func:`gaussian_traces`), here on
     [x, y, vx, vy] and with the noise sigma^2 / q2 of a scan with misses and clutter."""
     pol, m = policy(1)
     b = belief(m)
     cands, ok = pol.moves()
     mean, cov = b.moments()
-    got = pol.scores(pol.paths(cands)[:, 0], mean, cov)
+    cov4 = cov[np.ix_(range(len(mean)), HORIZONTAL, HORIZONTAL)]
+    got = pol.traces_after(cov4[None], mean[:, :2], cands[None])[0]
     q2 = information_reduction_factor(m.sensor.sigma, m.sensor.p_detect, m.sensor.clutter_rate)
     mean4 = np.zeros_like(mean)
     mean4[:, :2] = mean[:, :2]
     cov6 = np.zeros_like(cov)
-    # [x, y, vx, vy] in the slots gaussian_traces reads as x, y, ...
-    cov6[:, :4, :4] = cov[np.ix_(range(len(mean)), HORIZONTAL, HORIZONTAL)]
+    cov6[:, :4, :4] = cov4  # [x, y, vx, vy] in the slots gaussian_traces reads as x, y, ...
     want = gaussian_traces(cands, mean4, cov6, m.sensor.sigma / np.sqrt(q2)).sum(axis=1)
     np.testing.assert_allclose(got, want, rtol=1e-12)
 
 
-def test_two_steps_equal_the_information_recursion():
-    """Hand check of the two-step recursion for one target and one path, in information
-    form: J1 = P0^-1 + q2 h1'h1 / s^2, P2 = (A J1^-1 A' + Q), J2 = P2^-1 + q2 h2'h2 / s^2;
-    the score is tr J1^-1 + tr J2^-1."""
+def test_two_steps_by_hand():
+    """Horizon 2, one target, from one start: the rollout's second move is the admissible
+    grid move of least trace after its scan, found here by brute force in information
+    form (J1 = P0^-1 + q2 h1'h1 / s^2, P2 = A J1^-1 A' + Q, J2 = P2^-1 + q2 h2'h2 / s^2,
+    the score tr J2^-1), with the means moving by A (no plan)."""
     pol, m = policy(2)
     mean = np.array([[300.0, 700.0, 0.0, 3.0, -4.0, 0.0]])
     cov = np.diag([400.0, 250.0, 1e-6, 9.0, 16.0, 1e-6])[None]
-    path = np.array([[[100.0, 100.0, 40.0], [120.0, 110.0, 40.0]]])
+    start = np.array([100.0, 100.0, m.uav.altitude])
     q2 = information_reduction_factor(m.sensor.sigma, m.sensor.p_detect, m.sensor.clutter_rate)
     r = m.sensor.sigma**2 / q2
     a, q = pol.a, pol.q
@@ -77,27 +78,57 @@ def test_two_steps_equal_the_information_recursion():
         h = np.array([d[1], -d[0], 0, 0]) / (d @ d)
         return np.outer(h, h) / r
 
-    p0 = cov[0][np.ix_(HORIZONTAL, HORIZONTAL)]
-    c0 = mean[0, :2]
-    j1 = np.linalg.inv(p0) + info(c0, path[0, 0])
-    j2 = np.linalg.inv(a @ np.linalg.inv(j1) @ a.T + q) + info(c0 + m.dynamics.dt * mean[0, 3:5], path[0, 1])
-    want = np.trace(np.linalg.inv(j1)) + np.trace(np.linalg.inv(j2))
-    np.testing.assert_allclose(pol.scores(path, mean, cov), [want], rtol=1e-9)
+    c0, c1 = mean[0, :2], mean[0, :2] + m.dynamics.dt * mean[0, 3:5]
+    j1 = np.linalg.inv(cov[0][np.ix_(HORIZONTAL, HORIZONTAL)]) + info(c0, start)
+    p2 = a @ np.linalg.inv(j1) @ a.T + q
+    moves = start + pol.offsets
+    assert admissible(start, moves, m.world, m.uav).all()  # far from every wall: the brute force needs no mask
+    want = np.array([np.trace(np.linalg.inv(np.linalg.inv(p2) + info(c1, s))) for s in moves])
+    centres = pol.predicted_means(mean)[..., :2]
+    np.testing.assert_allclose(centres[1, 0], c1)
+    after0 = pol.scan(cov[:, HORIZONTAL][:, :, HORIZONTAL][None], centres[0], start[None], predict=False)
+    total, path = pol.rollout(start[None], after0, centres)
+    np.testing.assert_allclose(total, [want.min()], rtol=1e-9)
+    np.testing.assert_array_equal(path[0, 1], moves[np.argmin(want)])
 
 
-def test_paths_stop_before_an_obstacle():
-    """From 30 m west of the paper world's first obstacle, the continuation heading east
-    (20 m steps) would enter it at its 2nd step: the path stays at its 1st (10 m short of
-    the wall) from then on; no path enters or crosses an obstacle."""
+def test_predicted_means_follow_the_plan_then_coast():
+    """The plan was made from another estimate (offset 15 m, 2 m/s): the predicted means
+    are the belief's mean driven by the plan's controls u_1 .. u_(T-1) and then by none,
+    computed here by stepping the dynamics (Eq. 1 without noise)."""
+    pol, m = policy(6)
+    dyn = m.dynamics
+    rng = np.random.default_rng(3)
+    controls = rng.uniform(-4000.0, 4000.0, (4, 3))  # T = 4 < horizon 6
+    controls[:, 2] = 0.0
+    plan = [dyn.step(np.array([200.0, 300.0, 0.0, 4.0, -1.0, 0.0]), controls[0])]
+    for u in controls[1:]:
+        plan.append(dyn.step(plan[-1], u))
+    mean = plan[0] + np.array([15.0, -15.0, 0.0, 2.0, 2.0, 0.0])
+    want = [mean]
+    for k in range(1, 6):
+        want.append(dyn.step(want[-1], controls[k] if k < 4 else np.zeros(3)))
+    got = pol.predicted_means(mean[None], [np.array(plan)])
+    np.testing.assert_allclose(got[:, 0], np.array(want)[:, HORIZONTAL], rtol=1e-12, atol=1e-9)
+
+
+def test_rollout_paths_are_admissible():
+    """From 30 m west of the paper world's first obstacle with a target beyond it, every
+    rolled-out move stays in the area and out of the obstacles, and no segment crosses one."""
     pol, m = policy(8)
     w = m.world
     lo, hi = w.obstacle_lo[0], w.obstacle_hi[0]
-    pol.position = np.array([lo[0] - 30.0, (lo[1] + hi[1]) / 2, m.uav.altitude])
-    paths = pol.stop_at_limits(pol.paths(pol.position[None]))[0]  # (V, H, 3)
-    east = np.argmin(np.abs(pol.continuations[1:, 1])) + 1  # the continuation along +x
-    np.testing.assert_allclose(paths[east, 1:, 0], lo[0] - 10.0)
-    assert not w.in_obstacle(paths).any() and not w.segment_blocked(paths[:, :-1], paths[:, 1:]).any()
-    np.testing.assert_array_equal(paths[0], np.repeat(pol.position[None], 8, axis=0))  # "stay" stays
+    start = np.array([lo[0] - 30.0, (lo[1] + hi[1]) / 2, m.uav.altitude])
+    mean = np.array([[hi[0] + 60.0, start[1], 0.0, 0.0, 0.0, 0.0]])
+    cov = np.diag([400.0, 400.0, 1e-6, 9.0, 9.0, 1e-6])[None]
+    firsts = start + pol.offsets
+    firsts = firsts[pol.m.world.in_area(firsts) & ~w.in_obstacle(firsts) & ~w.segment_blocked(start, firsts)]
+    centres = pol.predicted_means(mean)[..., :2]
+    p0 = np.broadcast_to(cov[:, HORIZONTAL][:, :, HORIZONTAL], (len(firsts), 1, 4, 4))
+    _, paths = pol.rollout(firsts, pol.scan(p0, centres[0], firsts, predict=False), centres)
+    assert w.in_area(paths).all() and not w.in_obstacle(paths).any()
+    assert not w.segment_blocked(paths[:, :-1], paths[:, 1:]).any()
+    assert np.ptp(paths[:, :, 0]) > 0  # the paths do move
 
 
 def test_choice_is_admissible_and_scores_only_admissible_moves():

@@ -114,7 +114,8 @@ class Simulation:
         self.prepare()
         sec, events = self._sec, self._events
         t3 = time.perf_counter()
-        moves = self.policy.act(self.t, self.belief, action)
+        forecast = None if self.oracle else [p.means for p in self.plans]
+        moves = self.policy.act(self.t, self.belief, action, forecast)
         sec["planner"] = time.perf_counter() - t3
         t4 = time.perf_counter()
         self.truth.move(self.t, self._truth_controls)

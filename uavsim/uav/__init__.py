@@ -68,9 +68,12 @@ class Policy(Protocol):
     @property
     def uav(self) -> np.ndarray | None: ...
 
-    def act(self, t: int, belief, action: int | None = None) -> tuple[np.ndarray | None, np.ndarray | None]:
-        """Move for step ``t + 1`` given the predicted belief; returns the candidate
-        positions and their scores where the policy chose among candidates."""
+    def act(self, t: int, belief, action: int | None = None, forecast: list | None = None
+            ) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """Move for step ``t + 1`` given the predicted belief and, per target, the means
+        ``(T, 6)`` of the guidance plan it was predicted with (``forecast``; None when the
+        filter predicts with other forces); returns the candidate positions and their
+        scores where the policy chose among candidates."""
 
 
 def make_policy(name: str, mission: Mission) -> Policy:

@@ -32,7 +32,7 @@ class _Static:
     def reset(self, rng: np.random.Generator) -> None:
         return None
 
-    def act(self, t: int, belief, action: int | None = None):
+    def act(self, t: int, belief, action: int | None = None, forecast: list | None = None):
         if action is not None:
             raise ValueError(f"the {self.name} policy takes no actions")
         return None, None

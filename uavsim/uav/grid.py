@@ -118,24 +118,27 @@ class GridOptimizer(OneUav):
         cands = candidates(self.position, self.m.uav)
         return cands, admissible(self.position, cands, self.m.world, self.m.uav)
 
-    def choose(self, belief) -> tuple[np.ndarray, np.ndarray, int]:
+    def choose(self, belief, forecast: list | None = None) -> tuple[np.ndarray, np.ndarray, int]:
         """Eq. (13) on the predicted ``belief``: the candidates, their summed traces
-        (``inf``: not admissible) and the index of the best."""
+        (``inf``: not admissible) and the index of the best.  ``forecast`` (the targets'
+        plans, see :meth:`act`) is not needed one step ahead."""
         cands, ok = self.moves()
         best, scores = decide(cands, ok, lambda c: belief.traces(c, self.sensor.sigma))
         return cands, scores, best
 
-    def act(self, t: int, belief, action: int | None = None) -> tuple[np.ndarray, np.ndarray | None]:
-        """Move: to candidate ``action`` if given (it must be admissible), else by Eq. (13)
-        (staying put when no move is admissible).  Returns the candidates and, when the
-        rule chose, their summed traces."""
+    def act(self, t: int, belief, action: int | None = None, forecast: list | None = None
+            ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Move: to candidate ``action`` if given (it must be admissible), else by
+        :meth:`choose` (staying put when no move is admissible).  Returns the candidates
+        and, when the rule chose, their scores.  ``forecast``: per target the means
+        ``(T, 6)`` of the guidance plan the belief was predicted with, or None."""
         if action is not None:
             cands, ok = self.moves()
             if not (0 <= action < len(cands) and ok[action]):
                 raise ValueError(f"move {action} is not admissible here")
             self.position = cands[action]
             return cands, None
-        cands, scores, best = self.choose(belief)
+        cands, scores, best = self.choose(belief, forecast)
         if np.isfinite(scores[best]):
             self.position = cands[best]
         return cands, scores

@@ -123,7 +123,7 @@ class Manoeuvre(OneUav):
         m = self.m
         self.route = manoeuvre_route(self.name, self.position, m.planner.manoeuvres, m.uav, m.world, m.path)
 
-    def act(self, t: int, belief, action: int | None = None):
+    def act(self, t: int, belief, action: int | None = None, forecast: list | None = None):
         if action is not None:
             raise ValueError(f"the {self.name} manoeuvre takes no actions")
         self.position = self.route.position(t + 1)
