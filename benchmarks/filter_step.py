@@ -1,6 +1,7 @@
 """Particle filter step and Eq. (13) decision, before and after issue 17, interleaved.
 
     OPENBLAS_NUM_THREADS=1 taskset -c 0 python benchmarks/filter_step.py [--repeats 200] [--decisions 15]
+    OPENBLAS_NUM_THREADS=1 taskset -c 0 python benchmarks/filter_step.py --alone 1500
 
 "Before" is ``uavsim/filtering.py`` and ``uavsim/planning.py`` as of commit ``--before``
 (read with ``git show``, run against this checkout's other modules); "after" is this
@@ -118,7 +119,14 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=200, help="filter steps per configuration")
     ap.add_argument("--decisions", type=int, default=15, help="decisions per N")
     ap.add_argument("--before", default="8c473d3", help="commit of the 'before' figures")
+    ap.add_argument("--alone", type=int, metavar="STEPS", default=0,
+                    help="only this checkout's 1-target step, STEPS steps (no old code beside it)")
     args = ap.parse_args()
+    if args.alone:
+        step = np.array(filter_runs({"after": filtering}, 1, args.alone)["after"][0])
+        print(f"filter step alone, 1 target x 5000: median {1e3 * np.median(step):.3f} ms, "
+              f"min {1e3 * step.min():.3f} ms, p90 {1e3 * np.quantile(step, 0.9):.3f} ms over {args.alone} steps")
+        return
     old_f, old_p = before("filtering", args.before), before("planning", args.before)
     if old_f is None:
         print(f"git cannot show commit {args.before}: 'after' figures only")
