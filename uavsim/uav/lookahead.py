@@ -7,8 +7,9 @@ rollout of the base policy, Bertsekas, *Rollout, Policy Iteration and Distribute
 Reinforcement Learning*, 2020, Ch. 2): at every later step the admissible grid move of
 Eq. (3) (area, operating region, obstacles, segments) of least summed trace after its
 scan.  It flies the best first move and decides again the next step (receding horizon).
-Because the base policy's own first move is among those scored, the rollout's score is
-never above the base policy's in the model (cost improvement).
+The myopic rule's own first move is among those scored, so the chosen move's score is
+at most the score of flying the myopic rule throughout (in the model below; the measured
+RMSE need not follow, see the README's lookahead table).
 
 **Score.**  Each target's predicted belief is summarised by its moments on
 ``[x, y, vx, vy]`` (:data:`uavsim.targets.HORIZONTAL`).  Along a path the covariance
