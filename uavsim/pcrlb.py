@@ -195,13 +195,13 @@ def information_reduction_factor(sigma: float, p_detect: float, clutter_rate: fl
 
 
 # --------------------------------------------------------------------------- measurement information
-def bearing_gradients(targets: np.ndarray, observers: np.ndarray) -> np.ndarray:
+def bearing_gradients(targets: np.ndarray, observers: np.ndarray, min_range: float = 0.0) -> np.ndarray:
     """``d l / d(x, y)`` of the 004 bearing ``atan2(dx, dy)``: ``(dy, -dx) / r^2``.
 
     Parameters
     ----------
     targets : (..., M, >=2) true positions; observers : (..., S, >=2) sensor positions
-    (the leading dimensions broadcast).
+    (the leading dimensions broadcast); min_range : r floored there (m); 0: no floor.
 
     Returns
     -------
@@ -216,26 +216,28 @@ def bearing_gradients(targets: np.ndarray, observers: np.ndarray) -> np.ndarray:
     004_22b452551a772073.txt Eq. (4).
     """
     d = targets[..., :, None, :2] - observers[..., None, :, :2]  # (..., M, S, 2)
-    r2 = (d**2).sum(-1, keepdims=True)
+    r2 = np.maximum((d**2).sum(-1, keepdims=True), min_range**2)
     if np.any(r2 == 0.0):
         raise ValueError("a sensor is exactly above a target (zero horizontal range): the bearing and its "
                          "information are undefined there")
     return np.stack([d[..., 1], -d[..., 0]], -1) / r2
 
 
-def scan_information(targets: np.ndarray, observers: np.ndarray, sigma: float, q2: float) -> np.ndarray:
+def scan_information(targets: np.ndarray, observers: np.ndarray, sigma: float, q2: float,
+                     min_range: float = 0.0) -> np.ndarray:
     """``J_Z = q2 / sigma^2 sum_s h_s^T h_s`` on (x, y) of one scan by every sensor.
 
     Parameters
     ----------
     targets : (..., M, >=2) true positions; observers : (..., S, >=2) (leading dimensions
-    broadcast); sigma : bearing noise std (rad); q2 : the IRF of the sensor.
+    broadcast); sigma : bearing noise std (rad); q2 : the IRF of the sensor; min_range :
+    see :func:`bearing_gradients`.
 
     Returns
     -------
     (..., M, 2, 2).
     """
-    h = bearing_gradients(targets, observers)  # (..., M, S, 2)
+    h = bearing_gradients(targets, observers, min_range)  # (..., M, S, 2)
     return (q2 / sigma**2) * np.einsum("...msi,...msj->...mij", h, h)
 
 

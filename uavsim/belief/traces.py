@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..pcrlb import bearing_gradients
+
 BLOCK_ELEMENTS = 1 << 16  # candidate x target x particle entries per block: 256 kB float32 arrays stay in L2
 
 
@@ -90,17 +92,19 @@ def _block_sums(cross: np.ndarray, dot: np.ndarray, feats: np.ndarray, sigma: fl
     return np.exp(expo, out=expo) @ feats.transpose(0, 2, 1), low
 
 
-def gaussian_traces(candidates: np.ndarray, means: np.ndarray, covs: np.ndarray, sigma: float) -> np.ndarray:
+def gaussian_traces(candidates: np.ndarray, means: np.ndarray, covs: np.ndarray, sigma: float,
+                    min_range: float = 0.0) -> np.ndarray:
     """Eq. (12)-(13) for Gaussian beliefs (the pseudo-linear filters): the trace after a
     noise-free bearing linearised at the mean, ``tr(P) - |P h|^2 / (h P h^T + sigma^2)``,
-    ``h = (dy, -dx, 0, ...) / r^2`` the gradient of ``atan2(dx, dy)``.
+    ``h = (dy, -dx, 0, ...) / r^2`` the gradient of ``atan2(dx, dy)``
+    (:func:`uavsim.pcrlb.bearing_gradients`, ``r`` floored at ``min_range``).
 
-    candidates (C, >=2); means (M, 6); covs (M, 6, 6).  Returns (C, M)."""
-    d = means[None, :, :2] - candidates[:, None, :2]  # (C, M, 2)
-    h2 = np.stack([d[..., 1], -d[..., 0]], -1) / np.sum(d**2, -1, keepdims=True)
-    ph = np.einsum("mij,cmj->cmi", covs[:, :, :2], h2)  # (C, M, 6)
-    s = np.einsum("cmi,cmi->cm", h2, ph[..., :2]) + sigma**2
-    return np.trace(covs, axis1=1, axis2=2)[None, :] - np.sum(ph**2, -1) / s
+    candidates (..., C, >=2); means (M, >=2); covs (..., M, n, n), x and y first (leading
+    dimensions broadcast).  Returns (..., C, M)."""
+    h2 = np.swapaxes(bearing_gradients(means, candidates, min_range), -2, -3)  # (..., C, M, 2)
+    ph = np.einsum("...mij,...cmj->...cmi", covs[..., :2], h2)  # (..., C, M, n)
+    s = np.einsum("...cmi,...cmi->...cm", h2, ph[..., :2]) + sigma**2
+    return np.trace(covs, axis1=-2, axis2=-1)[..., None, :] - np.sum(ph**2, -1) / s
 
 
 def decide(candidates: np.ndarray, admissible: np.ndarray, traces) -> tuple[int, np.ndarray]:

@@ -8,8 +8,8 @@ maps the names a mission or the command line uses to their makers:
 
 * ``optimized``: the grid move of least summed pseudo-posterior trace (Eq. 3, 12-13),
   or a move chosen from outside (``Simulation.step(action)``, the Gymnasium environment);
-* ``lookahead``: the first grid move of the path of least accumulated covariance trace
-  over several steps (non-myopic; :mod:`.lookahead`);
+* ``lookahead``: the grid move of least covariance trace accumulated over a rollout of
+  the myopic rule for several steps (non-myopic; :mod:`.lookahead`);
 * ``zigzag``, ``square``, ``pentagon``, ``circle``: pre-computed loops (Fig. 3);
 * ``fixed-sensors``: three static sensors without false alarms (Fig. 2c);
 * ``baseline``: no sensor (the no-information baseline).

@@ -44,8 +44,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..belief.traces import gaussian_traces
 from ..mission import Mission
-from ..pcrlb import information_reduction_factor, pcrlb_step
+from ..pcrlb import information_reduction_factor, pcrlb_step, scan_information
 from ..targets import HORIZONTAL
 from .grid import GridOptimizer, admissible, move_offsets
 
@@ -73,7 +74,8 @@ class Lookahead(GridOptimizer):
         self.offsets = np.column_stack([off, np.zeros(len(off))])
         self.a = dyn.a[np.ix_(HORIZONTAL, HORIZONTAL)]
         self.q = dyn.q[np.ix_(HORIZONTAL, HORIZONTAL)]
-        self.gain = information_reduction_factor(s.sigma, s.p_detect, s.clutter_rate) / s.sigma**2  # q2 / sigma^2
+        self.q2 = information_reduction_factor(s.sigma, s.p_detect, s.clutter_rate)
+        self.noise = s.sigma / np.sqrt(self.q2) if self.q2 > 0 else np.inf  # a scan's equivalent noise (rad)
 
     def predicted_means(self, mean: np.ndarray, forecast: list | None = None) -> np.ndarray:
         """``(H, M, 4)`` predicted ``[x, y, vx, vy]`` means (module docstring) from the
@@ -92,27 +94,20 @@ class Lookahead(GridOptimizer):
                 out[k, j] += forced
         return out
 
-    def info(self, centres: np.ndarray, at: np.ndarray) -> np.ndarray:
-        """``(..., M, 2, 2)`` the information ``q2 h^T h / sigma^2`` on (x, y) of a bearing
-        from ``at (..., >=2)`` to each of ``centres (M, 2)``."""
-        h = gradient(centres, at)
-        return self.gain * h[..., :, None] * h[..., None, :]
-
     def scan(self, cov: np.ndarray, centres: np.ndarray, at: np.ndarray, predict: bool = True) -> np.ndarray:
         """``(B, M, 4, 4)`` covariances ``cov (B, M, 4, 4)`` after one step (``predict``)
-        and one scan from ``at (B, >=2)`` (:func:`pcrlb_step`)."""
+        and one scan from ``at (B, >=2)`` (:func:`pcrlb_step` with
+        :func:`scan_information`)."""
         a, q = (self.a, self.q) if predict else (np.eye(4), np.zeros((4, 4)))
         b, m = cov.shape[:2]
-        return pcrlb_step(cov.reshape(-1, 4, 4), a, q, self.info(centres, at).reshape(-1, 2, 2)).reshape(b, m, 4, 4)
+        info = scan_information(centres, at[:, None, :], self.sensor.sigma, self.q2, MIN_RANGE_M)
+        return pcrlb_step(cov.reshape(-1, 4, 4), a, q, info.reshape(-1, 2, 2)).reshape(b, m, 4, 4)
 
     def traces_after(self, pred: np.ndarray, centres: np.ndarray, at: np.ndarray) -> np.ndarray:
         """``(B, C)`` summed traces of predicted covariances ``pred (B, M, 4, 4)`` after a
-        scan from each candidate ``at (B, C, >=2)`` (the rank-one update, module docstring)."""
-        h = gradient(centres, at)  # (B, C, M, 2)
-        ph = np.einsum("bmij,bcmj->bcmi", pred[..., :2], h)  # (B, C, M, 4) P E^T h
-        hph = np.einsum("bcmi,bcmi->bcm", h, ph[..., :2])
-        drop = self.gain * np.sum(ph**2, -1) / (1.0 + self.gain * hph)
-        return (np.trace(pred, axis1=2, axis2=3)[:, None, :] - drop).sum(-1)
+        scan from each candidate ``at (B, C, >=2)``: Eq. (13) for Gaussian beliefs
+        (:func:`gaussian_traces`) with the scan's noise variance ``sigma^2 / q2``."""
+        return gaussian_traces(at, centres, pred, self.noise, MIN_RANGE_M).sum(-1)
 
     def rollout(self, starts: np.ndarray, cov: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The myopic rule flown from each of ``starts (B, 3)`` for steps 1 .. H-1, with
@@ -149,9 +144,3 @@ class Lookahead(GridOptimizer):
             best[ok] = belief.traces(first, self.sensor.sigma).sum(axis=1) + later  # Eq. (13), then the rollout
         return cands, best, int(np.argmin(best))
 
-
-def gradient(centres: np.ndarray, at: np.ndarray) -> np.ndarray:
-    """``(..., M, 2)`` the bearing's gradient ``h = (dy, -dx) / r^2`` on (x, y) at each of
-    ``centres (M, 2)`` seen from ``at (..., >=2)``, with ``r`` floored at ``MIN_RANGE_M``."""
-    d = centres - at[..., None, :2]
-    return np.stack([d[..., 1], -d[..., 0]], -1) / np.maximum((d**2).sum(-1), MIN_RANGE_M**2)[..., None]
