@@ -109,6 +109,10 @@ BAD_MISSIONS = [
     (NO_TARGETS.replace("seed = 2023", "seed = 2023\ntargets = []"), "targets", "at least one"),
     (sub("particles = 5000", 'kind = "ub-plkf"'), "filter.kind", "ub-plkf has no clutter model"),
     (sub("particles = 5000", 'kind = "ekf"'), "filter.kind", "must be one of particle, plkf"),
+    (sub("plan_clusters = 1", "plan_clusters = 3"), "filter.plan_clusters", "must be <= 2"),
+    (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "plkf"')
+     .replace("plan_clusters = 1", "plan_clusters = 2")
+     .replace("clutter_rate = 0.5", "clutter_rate = 0.0"), "filter.plan_clusters", "needs particles to split"),
     (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "iv-plkf"')
      .replace("clutter_rate = 0.0\n\n#", "clutter_rate = 0.5\n\n#"),
      "planner.fixed_sensors.clutter_rate", "needs clutter-free sensors"),

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from uavsim.belief.particle import ParticleFilter, log_likelihood, systematic_indices, weighted_moments
+from uavsim.belief.particle import ParticleFilter, halves, log_likelihood, systematic_indices, weighted_moments
 from uavsim.sensing import Sensor, wrap_angle
 from uavsim.targets import Dynamics
 
@@ -133,6 +133,31 @@ def test_predict_is_eq9a_with_the_generators_next_normals(correlated, n):
     z = np.random.default_rng(12).standard_normal((2, n, 6))
     want = x0 @ dyn.a.T + (u @ dyn.b.T)[:, None, :] + z @ dyn.q_chol.T
     np.testing.assert_allclose(pf.particles, want, rtol=1e-12, atol=1e-9)
+    # plan_clusters = 2: the masked particles move by the other force, the rest as before
+    mask, other = rng.random((2, n)) < 0.3, rng.uniform(-3000, 3000, (2, 3))
+    pf = ParticleFilter(x0.copy(), np.full((2, n), -np.log(n)))
+    pf.predict(np.random.default_rng(12), dyn.a, dyn.b, dyn.q_chol, u, (mask, other))
+    want[mask] += ((other - u) @ dyn.b.T)[np.nonzero(mask)[0]]
+    np.testing.assert_allclose(pf.particles, want, rtol=1e-12, atol=1e-9)
+
+
+def test_halves_finds_two_separated_clouds_whatever_their_weights():
+    """Two clouds 10 standard deviations apart in velocity only (same positions: a plan
+    depends on velocity too), one of them with 10% of the weight, in shuffled order: the
+    split is exactly the two clouds.  One unimodal cloud splits into two halves of about
+    equal weight (the principal-axis hyperplane through the mean; 2-means keeps it)."""
+    rng = np.random.default_rng(5)
+    n = 4000
+    a = rng.normal(size=(n // 2, 6)) * [20, 20, 0, 1, 1, 0]
+    b = a[::-1] + [0, 0, 0, 10, 0, 0]
+    x = np.concatenate([a, b])
+    order = rng.permutation(n)
+    w = np.r_[np.full(n // 2, 0.9), np.full(n // 2, 0.1)] / (n // 2)
+    side = halves(x[order][None], w[order][None])[0]
+    truth = (order >= n // 2)
+    assert np.array_equal(side, truth) or np.array_equal(side, ~truth)
+    one = halves(a[None], np.full((1, n // 2), 2.0 / n))[0]
+    assert abs(one.mean() - 0.5) < 0.05
 
 
 def test_particle_filter_matches_kalman_on_linear_gaussian_toy():

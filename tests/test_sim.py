@@ -226,3 +226,37 @@ def test_iv_plkf_tracks_the_clutter_free_paper_mission():
     pf = run_campaign(load_mission(CLUTTER_FREE, {"steps": 30, "trials": 2, "filter.kind": "particle",
                                                     "filter.particles": 5000}), "optimized")
     assert iv["time_avg_rmse"] < 2 * pf["time_avg_rmse"]
+
+
+def test_plan_clusters_2_moves_each_half_by_the_plan_from_its_own_mean():
+    """``[filter] plan_clusters = 2``: target 0's cloud made of two parts heading opposite
+    ways (vx = +8 and -8 m/s) is split into exactly those parts, each part's plan is the
+    re-plan from its own weighted moments, and the prediction moves each part by its own
+    plan's first force (checked against Eq. 9a with the filter generator's normals)."""
+    from uavsim.belief.particle import halves, weighted_moments
+    from uavsim.sim import Simulation
+
+    m = small(steps=1, **{"filter.plan_clusters": 2})
+    sim = Simulation(m, "optimized")
+    sim.reset(1)
+    pf = sim.belief.pf
+    pf.particles[0, :, 3] = np.where(np.arange(pf.particles.shape[1]) % 2 == 0, 8.0, -8.0)
+    x0, w = pf.particles.copy(), pf.weights.copy()
+    rng_state = sim.belief.rng.bit_generator.state
+    sim.prepare()
+    mask = halves(x0, w)
+    assert np.array_equal(mask[0], x0[0, :, 3] > 0) or np.array_equal(mask[0], x0[0, :, 3] < 0)
+    plans = sim.half_plans[0]
+    forces = []
+    for h, part in enumerate((~mask[0], mask[0])):
+        mu, cov = weighted_moments(x0[:1], (w[0] * part / (w[0] * part).sum())[None])
+        again = sim.guidance.replan(mu[0], cov[0], m.goals[0], None, 0)
+        np.testing.assert_allclose(plans[h].controls[0], again.controls[0], rtol=1e-6, atol=1e-3)
+        forces.append(plans[h].controls[0])
+    assert np.linalg.norm(forces[0] - forces[1]) > 100.0  # the two parts are steered differently
+    rng = np.random.default_rng()
+    rng.bit_generator.state = rng_state
+    z = rng.standard_normal(x0.shape)
+    d = m.dynamics
+    want = x0[0] @ d.a.T + z[0] @ d.q_chol.T + np.where(mask[0][:, None], forces[1] @ d.b.T, forces[0] @ d.b.T)
+    np.testing.assert_allclose(pf.particles[0], want, rtol=1e-9, atol=1e-6)

@@ -1,6 +1,8 @@
 """Generated worlds: every one validates, each seed gives the same bytes, and each holds
 what the generator promises (reachable goals within the horizon, free starts, variety)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -41,7 +43,9 @@ def test_generated_missions_carry_the_paper_numbers(suite):
         for a, b in ((m.dynamics, paper.dynamics), (m.sensor, paper.sensor)):
             assert {k: v for k, v in vars(a).items() if k != "q"} == {k: v for k, v in vars(b).items() if k != "q"}
         np.testing.assert_array_equal(m.dynamics.q, paper.dynamics.q)
-        assert m.guidance == paper.guidance and m.filter == paper.filter
+        # the filter's one difference: each half of a particle cloud moves by its own plan
+        # (the paper's one plan from the mean lost targets on generated worlds; README)
+        assert m.guidance == paper.guidance and m.filter == replace(paper.filter, plan_clusters=2)
         assert (m.uav.step, m.uav.n_theta, m.uav.n_r, m.steps) == (paper.uav.step, paper.uav.n_theta,
                                                                     paper.uav.n_r, paper.steps)
         for t in m.targets:

@@ -454,7 +454,10 @@ def _filter(t: _Table, sensor: Sensor) -> FilterConfig:
         particles=t.number("particles", integer=True, lo=10, default=5000 if kind != "particle" else _MISSING),
         resample_threshold=t.number("resample_threshold", default=0.5, lo=0, hi=1),
         roughening=t.number("roughening", default=0.0, lo=0),
+        plan_clusters=t.number("plan_clusters", integer=True, default=2 if kind == "particle" else 1, lo=1, hi=2),
     )
+    if f.plan_clusters > 1 and kind != "particle":
+        t.fail("plan_clusters", f"needs particles to split (kind = \"particle\"), got kind = \"{kind}\"")
     t.finish()
     return f
 

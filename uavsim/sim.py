@@ -6,7 +6,15 @@ Each step t -> t+1:
 2. **guidance**: every target's P1 is re-solved from its posterior ``N(mu_t, Sigma_t)``
    (Eq. 8c, rolling horizon), warm-started from its previous plan; a failed re-plan
    falls back to the previous plan shifted by one step (an event is logged);
-3. **belief predict** (Eq. 9a) with each plan's first control;
+3. **belief predict** (Eq. 9a) with each plan's first control.  With ``[filter]
+   plan_clusters = 2`` each particle cloud is split in two (:func:`.belief.particle.halves`)
+   and each half moves by the first control of a plan from its own mean and covariance
+   (warm-started from last step's half plan nearest to it).  A plan depends on the start's
+   velocity as much as on its position, and on which side of an obstacle it lies, so one
+   plan from the mean moves the whole cloud by a force that fits neither part of a
+   spread or split cloud; two plans per target follow the truth round the side it takes
+   on worlds where one plan lost it (``benchmarks/worlds.py``).  A half holding less than
+   :data:`MIN_HALF` of the weight moves by the mean's plan;
 4. **UAV**: the policy moves (:mod:`.uav`: Eq. 12-13 grid moves, a manoeuvre, fixed
    sensors, no sensor), or takes the move given to :meth:`Simulation.step`;
 5. **truth moves**, then **sense and update** (Eq. 4, 9b-11) from the policy's observers.
@@ -32,6 +40,7 @@ from .truth import Truth
 from .uav import make_policy
 
 STAGES = ("guidance", "filter", "planner", "truth", "total")
+MIN_HALF = 0.01  # a half of the particle cloud with less weight than this moves by the mean's plan
 
 
 @dataclass
@@ -84,6 +93,7 @@ class Simulation:
                                   tuple(t.name for t in m.targets))
         self.t, self._prepared = 0, False
         self.plans: list[Plan | None] = [None] * len(m.targets)
+        self.half_plans: list[list[Plan]] = [[] for _ in m.targets]  # per target: this step's two half plans, or none
         self.policy.reset(uav_rng)
         return self._info([], [], (None, None), {}, [])
 
@@ -98,13 +108,19 @@ class Simulation:
         self._truth_controls = self.truth.controls(self.t, events)
         sec["truth"] = time.perf_counter() - t0
         t1 = time.perf_counter()
-        if not self.oracle:
+        split = None
+        if self.oracle:
+            controls = self._truth_controls
+        else:
             mean, cov = self.belief.moments()
-            self.plans = [self._replan(j, mean[j], cov[j], events) for j in range(len(mean))]
+            previous = self.plans
+            self.plans = [self._replan(j, mean[j], cov[j], previous[j], events) for j in range(len(mean))]
+            controls = np.array([p.controls[0] for p in self.plans])
+            if m.filter.plan_clusters == 2:
+                controls, split = self._half_controls(controls, previous, events)
         sec["guidance"] = time.perf_counter() - t1
         t2 = time.perf_counter()
-        controls = self._truth_controls if self.oracle else np.array([p.controls[0] for p in self.plans])
-        self.belief.predict(m.dynamics, controls)
+        self.belief.predict(m.dynamics, controls, split)
         sec["filter"] = time.perf_counter() - t2
         self._prepared, self._sec, self._events = True, sec, events
 
@@ -136,8 +152,27 @@ class Simulation:
                         seconds, events, self.belief.samples(), self.policy.uav,
                         None if self.truth.sensitivity is None else self.truth.sensitivity.copy())
 
-    def _replan(self, j: int, mean, cov, events: list[str]) -> Plan:
-        plan = self.guidance.replan(mean, cov, self.m.goals[j], self.plans[j], self.t)
+    def _replan(self, j: int, mean, cov, warm: Plan | None, events: list[str], who: str = "estimate") -> Plan:
+        plan = self.guidance.replan(mean, cov, self.m.goals[j], warm, self.t)
         if plan.status == "fallback":
-            events.append(f"{self.m.targets[j].name} (estimate): {plan.message}")
+            events.append(f"{self.m.targets[j].name} ({who}): {plan.message}")
         return plan
+
+    def _half_controls(self, controls: np.ndarray, previous: list[Plan | None], events: list[str]
+                       ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
+        """``plan_clusters = 2`` (module docstring): the first controls of both halves'
+        plans, ``(M, 3)`` for the first half and ``(mask (M, N), (M, 3))`` for the second."""
+        mask, mass, means, covs = self.belief.halves()
+        both = np.stack([controls, controls], axis=1)  # (M, 2, 3)
+        for j in range(len(controls)):
+            if mass[j].min() < MIN_HALF:
+                self.half_plans[j] = []
+                continue
+            warm = [p for p in (*self.half_plans[j], previous[j]) if p is not None]
+            plans = []
+            for h in range(2):
+                near = min(warm, key=lambda p: np.linalg.norm(p.means[0, :2] - means[j, h, :2]), default=None)
+                plans.append(self._replan(j, means[j, h], covs[j, h], near, events, f"estimate, half {h + 1}"))
+                both[j, h] = plans[-1].controls[0]
+            self.half_plans[j] = plans
+        return both[:, 0], (mask, both[:, 1])

@@ -74,6 +74,7 @@ class Settings:
     particles: int = 5000
     resample_threshold: float = 0.5
     roughening: float = 0.0
+    plan_clusters: int = 2  # the paper's missions say 1 (Sec. V); see uavsim.sim
     cov0_si: tuple[float, ...] = (200.0, 200.0, 1e-10, 20.0, 20.0, 1e-10)
     trials: int = 10
 
@@ -487,7 +488,7 @@ def _mission_tables(g: Generated) -> list[str]:
               f"gap = {_num(s.gap)}", f"time_limit_s = {_num(s.time_limit_s)}",
               f"replan_budget_s = {_num(s.replan_budget_s)}",
               "", "[filter]", f"particles = {s.particles}", f"resample_threshold = {_num(s.resample_threshold)}",
-              f"roughening = {_num(s.roughening)}",
+              f"roughening = {_num(s.roughening)}", f"plan_clusters = {s.plan_clusters}",
               "", "[planner]", 'name = "optimized"', "", "[planner.manoeuvres]"]
     lines += [f"{k} = {_num(v)}" for k, v in g.manoeuvres.items()]
     lines += ["", "[planner.fixed_sensors]", f"positions_m = [{', '.join(_vec(p) for p in g.fixed_sensors)}]"]

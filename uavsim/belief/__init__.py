@@ -30,19 +30,27 @@ KINDS = ("particle", *FILTERS)
 @dataclass(frozen=True)
 class FilterConfig:
     """The estimator: ``kind = "particle"`` (004 Sec. V-A, the default) or one of 002's
-    pseudo-linear Kalman filters (clutter-free sensors only); particle settings."""
+    pseudo-linear Kalman filters (clutter-free sensors only); particle settings.
+
+    ``plan_clusters``: 1, every particle moves by the plan from the posterior mean (004
+    Sec. V; the paper's missions say so); 2 (a mission file's default for particles), the
+    cloud is split in two (:func:`.particle.halves`) and each half moves by the plan from
+    its own mean (particle filters only; see :mod:`uavsim.sim`)."""
 
     particles: int
     resample_threshold: float
     roughening: float
     kind: str = "particle"
+    plan_clusters: int = 1
 
 
 class Belief(Protocol):
     """M targets' posteriors.  Shapes: means (M, 6), covariances (M, 6, 6)."""
 
-    def predict(self, dynamics: Dynamics, controls: np.ndarray) -> None:
-        """Eq. (9a) with each target's force ``controls (M, 3)``."""
+    def predict(self, dynamics: Dynamics, controls: np.ndarray,
+                split: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        """Eq. (9a) with each target's force ``controls (M, 3)``; ``split = (mask (M, N),
+        other (M, 3))``: the masked particles take ``other`` (particle beliefs only)."""
 
     def update(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor) -> list[str]:
         """Eq. (9b) with one scan per observer ``(S, 3)``; returns event messages

@@ -36,7 +36,8 @@ class GaussianBelief:
         self.mean, self.cov = means.astype(float).copy(), covs.astype(float).copy()
         self.kw = {"v_min": 0.0, "v_max": v_max} if kind == "vc-plkf" else {}
 
-    def predict(self, dynamics: Dynamics, controls: np.ndarray) -> None:
+    def predict(self, dynamics: Dynamics, controls: np.ndarray, split: None = None) -> None:
+        """``split`` (halves moving by different plans) is for particle beliefs only."""
         self.mean, self.cov = dynamics.predict(self.mean, self.cov, controls)
 
     def update(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor) -> list[str]:

@@ -4,7 +4,9 @@
 ``(M, N, 6)``, log-weights ``(M, N)``.  No Python loop runs over particles.
 
 * Predict (Eq. 9a): ``x <- A x + B u_j + nu``, ``nu ~ N(0, Q)``; ``u_j`` is the first
-  control of target j's guidance re-plan.
+  control of target j's guidance re-plan.  Optionally the cloud is split in two
+  (:func:`halves`) and each half moves by the plan from its own mean (``[filter]
+  plan_clusters = 2``, see :mod:`uavsim.sim`).
 * Update (Eq. 9b) with the measurement-set likelihood Eq. (10).  For uniform clutter
   ``p(phi) = 1 / (2 pi)`` and ``Psi(n; L) = e^-L L^n / n!`` the factorials cancel:
 
@@ -197,8 +199,9 @@ class ParticleFilter:
         return cls(particles, np.full(particles.shape[:2], -np.log(n)))
 
     def predict(self, rng: np.random.Generator, a: np.ndarray, b: np.ndarray, q_chol: np.ndarray,
-                controls: np.ndarray) -> None:
-        """Eq. (9a): ``x <- A x + B u + nu`` with ``controls (M, 3)``.
+                controls: np.ndarray, split: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        """Eq. (9a): ``x <- A x + B u + nu`` with ``controls (M, 3)``; ``split = (mask (M, N)
+        bool, other (M, 3))``: the masked particles take ``other`` instead.
 
         The noise goes through two buffers kept between calls: fresh temporaries of this
         size cost page faults on every step (the allocator returns them to the system)."""
@@ -209,6 +212,9 @@ class ParticleFilter:
             _affine_rows(x, None, controls @ b.T)
         else:  # a diagonal Q (every mission file's): L z is a scaling, done with B u in one wide pass
             x += _affine_rows(noise, np.diagonal(q_chol), controls @ b.T)
+        if split is not None:
+            mask, other = split
+            x += mask[..., None] * ((other - controls) @ b.T)[:, None, :]
         self.particles = x
 
     def update(self, loglik: np.ndarray) -> np.ndarray:
@@ -259,6 +265,42 @@ class ParticleFilter:
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
         """Eq. (11): weighted means (M, 6) and covariances (M, 6, 6)."""
         return weighted_moments(self.particles, self.weights, self._work)
+
+
+def halves(particles: np.ndarray, weights: np.ndarray, iters: int = 10) -> np.ndarray:
+    """``(M, N)`` bool: each cloud split in two by weighted 2-means on ``[x, y, vx, vy]``,
+    each scaled by its standard deviation (a guidance plan depends on position and
+    velocity alike).  Lloyd's iterations start from five hyperplanes through the mean
+    (normal to each scaled axis and to the principal axis; scaling hides a bimodal axis
+    from the principal axis alone) and the split with the largest between-halves sum of
+    squares is kept.  Deterministic; a side may be empty."""
+    z = particles[..., [0, 1, 3, 4]]
+    z = z - np.einsum("mn,mni->mi", weights, z)[:, None, :]
+    sd = np.sqrt(np.einsum("mn,mni->mi", weights, z * z))
+    z /= np.where(sd > 0, sd, 1.0)[:, None, :]
+    _, vecs = np.linalg.eigh(np.einsum("mn,mni,mnj->mij", weights, z, z))
+    normals = np.concatenate([np.broadcast_to(np.eye(4), (len(z), 4, 4)), vecs[:, None, :, -1]], axis=1)  # (M, 5, 4)
+    side = np.einsum("mni,mdi->mdn", z, normals) > 0  # (M, 5, N)
+    for _ in range(iters):
+        c0, c1, m0, m1 = _centres(z, weights, side)
+        new = np.einsum("mni,mdi->mdn", z, c1 - c0) > 0.5 * ((c1 * c1).sum(-1) - (c0 * c0).sum(-1))[..., None]
+        if np.array_equal(new, side):
+            break
+        side = new
+    c0, c1, m0, m1 = _centres(z, weights, side)
+    between = m0 * (c0 * c0).sum(-1) + m1 * (c1 * c1).sum(-1)  # (M, 5)
+    return side[np.arange(len(z)), np.argmax(between, axis=1)]
+
+
+def _centres(z, weights, side):
+    """Weighted centres ``(M, D, 4)`` and masses ``(M, D)`` of both sides of ``D`` splits
+    of a cloud ``z (M, N, 4)`` with weighted mean zero (an empty side has mass 0; its centre means nothing)."""
+    w1 = weights[:, None, :] * side
+    m1 = w1.sum(-1)
+    m0 = 1.0 - m1
+    c1 = np.einsum("mdn,mni->mdi", w1, z) / np.where(m1 > 0, m1, 1.0)[..., None]
+    c0 = -c1 * (m1 / np.where(m0 > 0, m0, 1.0))[..., None]
+    return c0, c1, m0, m1
 
 
 def systematic_indices(rng: np.random.Generator, weights: np.ndarray) -> np.ndarray:
@@ -340,8 +382,24 @@ class ParticleBelief:
         self.threshold, self.roughening = resample_threshold, roughening
         self.pf = ParticleFilter.from_priors(rng, means, covs, n)
 
-    def predict(self, dynamics: Dynamics, controls: np.ndarray) -> None:
-        self.pf.predict(self.rng, dynamics.a, dynamics.b, dynamics.q_chol, controls)
+    def predict(self, dynamics: Dynamics, controls: np.ndarray,
+                split: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        self.pf.predict(self.rng, dynamics.a, dynamics.b, dynamics.q_chol, controls, split)
+
+    def halves(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The cloud in two (:func:`halves`): ``mask (M, N)`` (True: the second half), each
+        half's weight ``mass (M, 2)``, mean ``(M, 2, 6)`` and covariance ``(M, 2, 6, 6)``
+        (those of an empty half are the whole cloud's)."""
+        w = self.pf.weights
+        mask = halves(self.pf.particles, w)
+        mass = np.stack([(w * ~mask).sum(axis=1), (w * mask).sum(axis=1)], axis=1)
+        safe, means, covs = np.where(mass > 0, mass, 1.0), [], []
+        for h, part in enumerate((~mask, mask)):
+            wh = np.where(mass[:, h:h + 1] > 0, w * part / safe[:, h:h + 1], w)
+            mu, cov = weighted_moments(self.pf.particles, wh)
+            means.append(mu)
+            covs.append(cov)
+        return mask, mass, np.stack(means, axis=1), np.stack(covs, axis=1)
 
     def update(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor) -> list[str]:
         if not scans:  # no sensor: the prediction is the posterior
