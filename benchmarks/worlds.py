@@ -11,7 +11,8 @@ profiles along it, the faces its points lie beyond are fixed (:func:`uavsim.rout
 faces_along`) and the cvxpy model of P1 with those faces is solved by Clarabel; the
 baseline is the best of these.  Then ``--trials`` closed-loop trials run as
 ``uavsim run`` would (truth from the prior, planned), recording every guidance plan
-(the truth's first plans and every re-plan of the filter), and the same trials again with
+(the truth's first plans and every re-plan of the filter: from the mean and, with
+``plan_clusters = 2``, from each half of the particle cloud), and the same trials again with
 the filter handed the truth's own forces (``oracle``), to separate guidance from tracking.
 
 Printed and written to ``OUT/worlds.json``: per world the share of re-plans certified
@@ -142,7 +143,7 @@ def run_world(seed: int, folder: str, trials: int, steps: int) -> dict:
                     if oracle:
                         continue
                     out["step_seconds"].append(info.seconds["total"])
-                    for plan in info.plans:
+                    for plan in [*info.plans, *(p for half in sim.half_plans for p in half)]:
                         out["collisions"] += collisions(m.world, plan)
                         out["replans"].append({"status": plan.status, "gap": plan.gap, "seconds": plan.solve_seconds,
                                                "warm": info.t > 1})
