@@ -105,7 +105,7 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
             observers.append(info.observers)
             if info.sensitivity is not None:
                 sens.append(info.sensitivity)
-            for p in info.plans:
+            for p in [*info.plans, *(h for half in sim.half_plans for h in half)]:  # halves: plan_clusters = 2
                 statuses[p.status] = statuses.get(p.status, 0) + 1
             events += [f"step {info.t}: {e}" for e in info.events if not e.startswith("resampled")]
     return TrialResult(index, np.array(err2), np.array(trace), np.array(nees_pos), np.array(nees_state),
@@ -141,6 +141,8 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
             fixed_sensors=own.fixed_sensors if planner == "fixed-sensors" else None,
             lookahead=own.lookahead if planner == "lookahead" else None))
     data = asdict(mission)
+    if data["filter"]["plan_clusters"] == 1:  # as before the setting existed: those folders still resume
+        del data["filter"]["plan_clusters"]
 
     def plain(o):
         return o.tolist() if isinstance(o, np.ndarray) else str(o)
