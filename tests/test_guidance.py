@@ -277,6 +277,26 @@ def test_an_estimate_outside_the_area_is_planned_from_inside(paper_guidance):
     assert np.all(plan.positions[1:, 0] <= MISSION.world.area_hi[0])  # step 1 is fixed by the start
 
 
+def test_an_estimate_heading_out_of_the_area_is_planned_from_rest(paper_guidance):
+    """An estimate 2 m inside the area's north edge heading north at 16 m/s: step 1 takes
+    it 14 m out whatever the force, and step 2 cannot be back (force 6 kN on 1300 kg
+    takes off 4.6 m/s per step: v_1 >= 0.8 * 16 - 4.6 = 8.2 m/s), so no plan of P1 starts
+    there; also from the edge clipped to the area.  The re-plan starts from that
+    position at rest, says so, and is not the previous plan flown on (met on generated
+    world 43 in an experiment, where the previous plans flown on cut obstacles)."""
+    t = MISSION.targets[2]
+    edge = np.array([500.0, MISSION.world.area_hi[1] - 2.0, 0.0, 0.0, 16.0, 0.0])
+    assert not paper_guidance.plan(edge, t.cov0, GOAL).ok
+    previous = paper_guidance.plan(t.mean0, t.cov0, GOAL)
+    plan = paper_guidance.replan(edge, t.cov0, GOAL, previous, 1)
+    assert plan.ok and plan.status in ("optimal", "feasible")
+    assert plan.message.startswith("no plan from the estimated velocity (0.0, 16.0) m/s; planned from rest at "
+                                   "the estimate")
+    rest = edge.copy()
+    rest[4] = 0.0
+    np.testing.assert_array_equal(plan.controls, paper_guidance.plan(rest, t.cov0, GOAL, previous, 1).controls)
+
+
 def test_deterministic(paper_guidance):
     """Two separately built solvers (no shared cache) give the identical plan; a repeated
     cold call returns the memoised plan."""

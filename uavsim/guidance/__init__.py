@@ -190,20 +190,27 @@ class Guidance:
     def replan(self, mean: np.ndarray, cov: np.ndarray, goal: np.ndarray, previous: Plan | None,
                step: int) -> Plan:
         """The closed loop's plan, which always exists: a new plan (:meth:`plan`); if none is
-        found and the estimate lies outside the area or above the speed limit (no plan can
-        start there), a plan from the nearest start within them (:meth:`_within_limits`;
-        the message says so); else ``previous`` one step on (:meth:`Plan.shifted`); without
-        a previous plan, zero force over the horizon.  The last two have status "fallback"
-        and say why."""
+        found, a plan from the nearest start within the area and speed limit if the estimate
+        is outside them (:meth:`_within_limits`), then from that position at rest (an
+        estimate near the area's edge can head out faster than the force limit can turn;
+        at rest, zero force is a plan); the message says which.  Failing those, ``previous``
+        one step on (:meth:`Plan.shifted`); without a previous plan, zero force over the
+        horizon.  The last two have status "fallback" and say why."""
         plan = self.plan(mean, cov, goal, warm=previous, step=step)
         if plan.ok:
             return plan
         inside, why = self._within_limits(mean)
-        if why:
-            retry = self.plan(inside, cov, goal, warm=previous, step=step)
+        still = inside.copy()
+        still[3:5] = 0.0
+        tries = [(inside, f"planned from the nearest start within the limits ({why})")] if why else []
+        if np.any(inside[3:5]):
+            where = f"({inside[0]:.1f}, {inside[1]:.1f}) m" if why else "the estimate"
+            tries.append((still, f"no plan from the estimated velocity ({mean[3]:.1f}, {mean[4]:.1f}) m/s; "
+                                 f"planned from rest at {where}"))
+        for start, how in tries:
+            retry = self.plan(start, cov, goal, warm=previous, step=step)
             if retry.ok:
-                return replace(retry, message="; ".join(filter(None, [f"planned from the nearest start within the "
-                                                                      f"limits ({why})", retry.message])))
+                return replace(retry, message="; ".join(filter(None, [how, retry.message])))
         if previous is not None:
             return previous.shifted(self.dynamics, mean, cov, f"re-plan {plan.status} ({plan.message}); "
                                                             "flying the previous plan")
