@@ -164,6 +164,23 @@ def test_failed_first_replan_coasts_and_is_logged():
     assert np.all(np.isfinite(info.mean))
 
 
+def test_a_belief_heading_out_of_the_area_is_planned_from_rest_and_logged():
+    """A belief 2 m inside the area's north edge heading north at 16 m/s has no plan
+    (tests/test_guidance.py, the same start): the step plans from rest there, uses that
+    plan's force and logs why."""
+    m = small(steps=1)
+    from uavsim.sim import Simulation
+
+    sim = Simulation(m, "optimized")
+    sim.reset(1)
+    sim.belief.pf.particles[2, :, :2] = [500.0, m.world.area_hi[1] - 2.0]
+    sim.belief.pf.particles[2, :, 3:5] = [0.0, 16.0]
+    info = sim.step()
+    assert info.plans[2].ok and info.plans[2].moved_start and info.plans[2].status in ("optimal", "feasible")
+    assert any(e.startswith("T3 (estimate): no plan from the estimated velocity") and "planned from rest" in e
+               for e in info.events)
+
+
 def test_a_belief_inside_an_obstacle_plans_its_way_out():
     """An estimate can lie inside an obstacle (a true target cannot): the re-plan drops the
     avoidance only where it cannot hold and flies out, no fallback, no event."""

@@ -58,6 +58,8 @@ class Plan:
     faces : (T-1, n, 4) active-face choice (warm start); terms : (K,) squared terms.
     first_step_in_margin : ``mu_{t+1|t}``, fixed by the start, lies inside an obstacle's
         safety margin (its avoidance constraint cannot be enforced; see model docstring).
+    moved_start : no plan started from the belief's mean; this one starts from a nearby
+        start within the limits (:meth:`Guidance.replan`; the message says which).
     """
 
     status: str
@@ -73,6 +75,7 @@ class Plan:
     terms: np.ndarray | None = None
     first_step_in_margin: bool = False
     message: str = ""
+    moved_start: bool = False
 
     @property
     def ok(self) -> bool:
@@ -210,7 +213,7 @@ class Guidance:
         for start, how in tries:
             retry = self.plan(start, cov, goal, warm=previous, step=step)
             if retry.ok:
-                return replace(retry, message="; ".join(filter(None, [how, retry.message])))
+                return replace(retry, message="; ".join(filter(None, [how, retry.message])), moved_start=True)
         if previous is not None:
             return previous.shifted(self.dynamics, mean, cov, f"re-plan {plan.status} ({plan.message}); "
                                                             "flying the previous plan")
