@@ -66,12 +66,13 @@ def main() -> None:
     ap.add_argument("--plan-clusters", type=int, choices=(1, 2), default=1)
     ap.add_argument("--only", default="", help="comma-separated settings (default: all)")
     args = ap.parse_args()
-    out, rng = Path(args.out), np.random.default_rng(0)
+    out = Path(args.out)
     print(f"{'setting':18s}{'no info':>9s}{'optimized':>10s}{'lookahead':>10s}{'ratio':>7s}{'paired t':>9s}"
           f"{'wins':>6s}{'resamples':>10s}{'PCRLB opt / la':>16s}{'planner s/step opt / la':>25s}")
-    for name, mission in missions(out).items():
+    for k, (name, mission) in enumerate(missions(out).items()):
         if args.only and name not in args.only.split(","):
             continue
+        rng = np.random.default_rng([0, k])  # the bootstrap's draws per setting, whichever settings run
         mission = replace(mission, trials=args.trials, filter=replace(mission.filter, plan_clusters=args.plan_clusters))
         err2, summary = {}, {}
         for planner in PLANNERS:
