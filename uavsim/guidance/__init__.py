@@ -203,13 +203,11 @@ class Guidance:
         if plan.ok:
             return plan
         inside, why = self._within_limits(mean)
-        still = inside.copy()
-        still[3:5] = 0.0
         tries = [(inside, f"planned from the nearest start within the limits ({why})")] if why else []
         if np.any(inside[3:5]):
             where = f"({inside[0]:.1f}, {inside[1]:.1f}) m" if why else "the estimate"
-            tries.append((still, f"no plan from the estimated velocity ({mean[3]:.1f}, {mean[4]:.1f}) m/s; "
-                                 f"planned from rest at {where}"))
+            tries.append((np.r_[inside[:3], 0.0, 0.0, inside[5]], f"no plan from the estimated velocity "
+                          f"({mean[3]:.1f}, {mean[4]:.1f}) m/s; planned from rest at {where}"))
         for start, how in tries:
             retry = self.plan(start, cov, goal, warm=previous, step=step)
             if retry.ok:
