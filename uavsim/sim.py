@@ -154,7 +154,7 @@ class Simulation:
 
     def _replan(self, j: int, mean, cov, warm: Plan | None, events: list[str], who: str = "estimate") -> Plan:
         plan = self.guidance.replan(mean, cov, self.m.goals[j], warm, self.t)
-        if plan.status == "fallback" or plan.moved_start:
+        if plan.eventful:
             events.append(f"{self.m.targets[j].name} ({who}): {plan.message}")
         return plan
 

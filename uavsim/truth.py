@@ -120,7 +120,7 @@ class Truth:
         self.plans = [self.guidance.replan(x, zero, self.m.goals[j], self.plans[j], t)
                       for j, x in enumerate(self.state)]
         events += [f"{self.m.targets[j].name} (truth): {p.message}" for j, p in enumerate(self.plans)
-                   if p.status == "fallback" or p.moved_start]
+                   if p.eventful]
         return np.array([p.controls[0] for p in self.plans])
 
     def move(self, t: int, controls: np.ndarray) -> None:

@@ -78,6 +78,11 @@ class Plan:
     moved_start: bool = False
 
     @property
+    def eventful(self) -> bool:
+        """A fallback or a plan from a moved start: the closed loop logs its message."""
+        return self.status == "fallback" or self.moved_start
+
+    @property
     def ok(self) -> bool:
         return self.controls is not None
 
