@@ -2,6 +2,10 @@
 
     python benchmarks/worlds.py [--worlds 50] [--trials 2] [--steps 50] [--workers N] [--out runs/worlds]
 
+Each world's result is kept in ``OUT/worlds/gen-sS.result.json`` as it finishes; a run cut
+off part-way is continued by the same command with ``--resume`` (a kept result is reused
+only if it was made with the same ``--trials`` and ``--steps``).
+
 World s is ``uavsim world generate --seed s --obstacles s % 16 --targets 1 + s % 8``
 (written to ``OUT/worlds`` and loaded through the mission reader, as a user would).  Per
 world, each target's first plan from its prior mean is checked against an independent
@@ -32,7 +36,7 @@ import json
 import os
 import re
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import replace
 from multiprocessing import get_context
 from pathlib import Path
@@ -119,9 +123,9 @@ def run_world(seed: int, folder: str, trials: int, steps: int) -> dict:
         path = write_world(seed, Path(folder))
         m = replace(load_mission(path), steps=steps)
         guidance = Guidance(m.world, m.dynamics, m.guidance)
-        out = {"seed": seed, "obstacles": m.world.n_obstacles, "targets": len(m.targets),
-               "area_m": (m.world.area_hi - m.world.area_lo)[:2].tolist(), "first": [], "replans": [],
-               "step_seconds": [], "collisions": 0, "rmse": [], "rmse_oracle": []}
+        out = {"seed": seed, "trials": trials, "steps": steps, "obstacles": m.world.n_obstacles,
+               "targets": len(m.targets), "area_m": (m.world.area_hi - m.world.area_lo)[:2].tolist(), "first": [],
+               "replans": [], "step_seconds": [], "collisions": 0, "rmse": [], "rmse_oracle": []}
         for t in m.targets:  # first plans from the prior mean, against the route baseline
             plan = guidance.plan(t.mean0, t.cov0, m.world.goals[t.goal].centroid)
             base = route_baseline(m, guidance, t)
@@ -150,7 +154,21 @@ def run_world(seed: int, folder: str, trials: int, steps: int) -> dict:
                 err2.append(e)
             rmse = np.sqrt(np.mean(err2, axis=0)).mean(axis=0)  # (M,) time-averaged per target
             out["rmse_oracle" if oracle else "rmse"] = rmse.tolist()
+        result_path(Path(folder), seed).write_text(json.dumps(out, default=float))
         return out
+
+
+def result_path(folder: Path, seed: int) -> Path:
+    return folder / f"gen-s{seed}.result.json"
+
+
+def kept_result(folder: Path, seed: int, trials: int, steps: int) -> dict | None:
+    """The result an earlier run kept for world ``seed`` with these settings, else None."""
+    try:
+        kept = json.loads(result_path(folder, seed).read_text())
+    except (OSError, ValueError):
+        return None
+    return kept if (kept.get("trials"), kept.get("steps")) == (trials, steps) else None
 
 
 # --------------------------------------------------------------------------- report
@@ -203,13 +221,21 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=50)
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", default="runs/worlds")
+    ap.add_argument("--resume", action="store_true", help="reuse the worlds an earlier run with these settings kept")
     args = ap.parse_args()
     out = Path(args.out)
     seeds = range(args.first, args.first + args.worlds)
     t0 = time.perf_counter()
+    kept = {s: kept_result(out / "worlds", s, args.trials, args.steps) for s in seeds} if args.resume else {}
+    todo = [s for s in seeds if kept.get(s) is None]
+    print(f"{len(seeds) - len(todo)} worlds kept from an earlier run, {len(todo)} to run", flush=True)
     with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
-        worlds = list(pool.map(run_world, seeds, [str(out / "worlds")] * len(seeds), [args.trials] * len(seeds),
-                               [args.steps] * len(seeds)))
+        jobs = {pool.submit(run_world, s, str(out / "worlds"), args.trials, args.steps): s for s in todo}
+        for job in as_completed(jobs):
+            kept[jobs[job]] = job.result()
+            print(f"world {jobs[job]} done ({sum(v is not None for v in kept.values())}/{len(seeds)}, "
+                  f"{time.perf_counter() - t0:.0f} s)", flush=True)
+    worlds = [kept[s] for s in seeds]
     gap = 1e-4
     print(f"{'seed':>4} {'obs':>3} {'tgt':>3} {'cert':>6} {'feas':>6} {'fall':>6} {'fail':>5} {'warm med':>9} "
           f"{'p99':>6} {'max':>6} {'cold max':>8} {'step med':>8} {'in goal':>7} {'vs routes':>9} {'coll':>4} "
