@@ -13,17 +13,23 @@ world, each target's first plan from its prior mean is checked against an indepe
 round the inflated obstacles (:func:`uavsim.routes.distinct_routes`) and three speed
 profiles along it, the faces its points lie beyond are fixed (:func:`uavsim.routes.
 faces_along`) and the cvxpy model of P1 with those faces is solved by Clarabel; the
-baseline is the best of these.  Then ``--trials`` closed-loop trials run as
-``uavsim run`` would (truth from the prior, planned), recording every guidance plan
-(the truth's first plans and every re-plan of the filter: from the mean and, with
-``plan_clusters = 2``, from each half of the particle cloud), and the same trials again with
-the filter handed the truth's own forces (``oracle``), to separate guidance from tracking.
+baseline is the best of these.  A first plan that ends outside its goal region gets an
+**in-goal baseline**: the same models, and the plan's own faces, with the plan's last
+point constrained into the region.  P1's Eq. (7) pulls the end towards the goal's
+centroid only softly, so a certified plan may end outside; the in-goal baseline says
+whether a plan ending inside exists and what it would cost in Eq. (7).  Then
+``--trials`` closed-loop trials (0: the first plans only) run as ``uavsim run`` would
+(truth from the prior, planned), recording every guidance plan (the truth's first plans
+and every re-plan of the filter: from the mean and, with ``plan_clusters = 2``, from each
+half of the particle cloud), and the same trials again with the filter handed the
+truth's own forces (``oracle``), to separate guidance from tracking.
 
 Printed and written to ``OUT/worlds.json``: per world the share of re-plans certified
 (gap <= 1e-4), feasible within budget, fallback, failed; cold and warm re-plan seconds
 per target (median, p90, p99, max); closed-loop median and mean step seconds; each
 target's time-averaged RMSE with its own guidance and with the truth's forces; whether
-each first plan ends in its goal region; collisions of any plan with any obstacle by a
+each first plan ends in its goal region (and, if not, how far from it and its in-goal
+baseline); collisions of any plan with any obstacle by a
 point-and-segment check against the raw cuboids (world.in_obstacle and
 world.segment_blocked, independent of the solver's inflated faces), from the first step
 a plan is required to avoid (a belief inside an obstacle's margin is allowed out first).
@@ -83,38 +89,67 @@ def collisions(world, plan) -> int:
 
 
 def in_goal(world, target, plan) -> bool:
+    return goal_distance(world, target, plan.positions[-1, :2]) == 0.0
+
+
+def goal_distance(world, target, point) -> float:
+    """Distance (m) from a ground point to the target's goal rectangle (0 inside)."""
     g = world.goals[target.goal]
-    end = plan.positions[-1, :2]
-    return bool(np.all(end >= g.lo) and np.all(end <= g.hi))
+    return float(np.linalg.norm(np.maximum(0.0, np.maximum(g.lo - point, point - g.hi))))
 
 
-def route_baseline(mission, guidance, target) -> float:
-    """Best objective of P1 with the faces fixed along distinct routes (module docstring)."""
+def route_faces(mission, guidance, target) -> list[np.ndarray]:
+    """Face choices (T-1, n*4) along up to ROUTES distinct routes x PROFILES speed profiles."""
     g, dyn, cfg = guidance.geom, mission.dynamics, mission.guidance
-    if not len(g.kept):
-        return np.nan
     mean, goal = target.mean0, mission.world.goals[target.goal].centroid
     p1 = mean[:2] + dyn.dt * mean[3:5]
-    routes = distinct_routes(p1, goal, g.lo, g.hi, g.area_lo, g.area_hi, k=ROUTES)
-    model = build_p1(mission.world, dyn, cfg, fixed_faces=True)
-    model.x0.value, model.goal.value = mean[[0, 1, 3, 4]], goal[:2]
     steps = np.arange(1, cfg.horizon)  # planned steps 2..T sit at these fractions of the route
-    best = np.inf
-    for r in routes:
+    out = []
+    for r in distinct_routes(p1, goal, g.lo, g.hi, g.area_lo, g.area_hi, k=ROUTES):
         for profile in PROFILES:
             frac = {"uniform": steps / (cfg.horizon - 1), "late": (steps / (cfg.horizon - 1)) ** 1.5,
                     "relaxed": np.minimum(1.0, steps / (0.8 * (cfg.horizon - 1)))}[profile]
             face = faces_along(r.at(frac * r.length), g.lo, g.hi)  # (T-1, n)
             y = np.ones((cfg.horizon - 1, len(g.kept), 4))
             np.put_along_axis(y, face[..., None], 0.0, axis=2)
-            model.y.value = y.reshape(cfg.horizon - 1, -1)
-            try:
-                model.problem.solve(solver=cp.CLARABEL, canon_backend=cp.SCIPY_CANON_BACKEND)
-            except cp.error.SolverError:
-                continue
-            if model.problem.status == cp.OPTIMAL:
-                best = min(best, model.problem.value)
+            out.append(y.reshape(cfg.horizon - 1, -1))
+    return out
+
+
+def best_fixed(problem: cp.Problem, y: cp.Parameter, choices: list[np.ndarray]) -> float:
+    """Least optimal value of the convex ``problem`` over the face choices (inf if none solves)."""
+    best = np.inf
+    for choice in choices:
+        y.value = choice
+        try:
+            problem.solve(solver=cp.CLARABEL, canon_backend=cp.SCIPY_CANON_BACKEND)
+        except cp.error.SolverError:
+            continue
+        if problem.status == cp.OPTIMAL:
+            best = min(best, problem.value)
     return best
+
+
+def baselines(mission, guidance, target, plan) -> tuple[float, float]:
+    """(route baseline, in-goal baseline).  The route baseline is the best objective of P1
+    with the faces fixed along distinct routes (module docstring; nan without obstacles,
+    where P1 is the QP itself).  For a plan that ends outside its goal region the in-goal
+    baseline is the best objective of P1 with its last point constrained into the region,
+    over the same routes and the plan's own faces (inf if none of them can end there);
+    nan for a plan that ends inside."""
+    n, cfg = len(guidance.geom.kept), mission.guidance
+    model = build_p1(mission.world, mission.dynamics, cfg, fixed_faces=True)
+    goal = mission.world.goals[target.goal]
+    model.x0.value, model.goal.value = target.mean0[[0, 1, 3, 4]], goal.centroid[:2]
+    choices = route_faces(mission, guidance, target) if n else [np.ones(model.y.shape)]
+    route = best_fixed(model.problem, model.y, choices) if n else np.nan
+    if not plan.ok or in_goal(mission.world, target, plan):
+        return route, np.nan
+    if n:
+        choices.append(plan.faces.reshape(cfg.horizon - 1, -1).astype(float))
+    end = model.x[-1, :2]
+    ending_in = cp.Problem(model.problem.objective, [*model.problem.constraints, end >= goal.lo, end <= goal.hi])
+    return route, best_fixed(ending_in, model.y, choices)
 
 
 # --------------------------------------------------------------------------- one world
@@ -128,12 +163,13 @@ def run_world(seed: int, folder: str, trials: int, steps: int) -> dict:
                "replans": [], "step_seconds": [], "collisions": 0, "rmse": [], "rmse_oracle": []}
         for t in m.targets:  # first plans from the prior mean, against the route baseline
             plan = guidance.plan(t.mean0, t.cov0, m.world.goals[t.goal].centroid)
-            base = route_baseline(m, guidance, t)
+            route, ending_in = baselines(m, guidance, t, plan)
             out["collisions"] += collisions(m.world, plan) if plan.ok else 0
             out["first"].append({"status": plan.status, "objective": plan.objective, "gap": plan.gap,
                                  "seconds": plan.solve_seconds, "in_goal": plan.ok and in_goal(m.world, t, plan),
-                                 "route_baseline": base})
-        for oracle in (False, True):
+                                 "end_to_goal_m": goal_distance(m.world, t, plan.positions[-1, :2]),
+                                 "route_baseline": route, "in_goal_baseline": ending_in})
+        for oracle in (False, True) if trials else ():  # --trials 0: the first plans only
             err2 = []
             for seed_k in trial_seeds(m.seed, trials):
                 sim = Simulation(m, "optimized", guidance, oracle=oracle)
@@ -190,6 +226,20 @@ def quantiles(seconds) -> dict:
             "max": float(s.max())}
 
 
+def outside_goal(first: list[dict], gap: float) -> dict:
+    """First plans ending outside their goal region: how far, whether a plan ending inside
+    exists (the in-goal baseline), what it costs in Eq. (7) against the plan's objective,
+    and how many such in-goal plans are cheaper than the plan (a guidance miss)."""
+    out = [f for f in first if not f["in_goal"]]
+    can = [f for f in out if np.isfinite(f.get("in_goal_baseline", np.nan))]
+    ratio = [f["in_goal_baseline"] / f["objective"] for f in can]
+    return {"n": len(out), "certified": sum(f["gap"] <= gap for f in out),
+            "measured": sum("in_goal_baseline" in f for f in out),  # results kept before it was measured lack it
+            "end_to_goal_m": quantiles([f["end_to_goal_m"] for f in out]),
+            "in_goal_plan_found": len(can), "in_goal_over_objective": quantiles(ratio),
+            "in_goal_cheaper": int(np.sum(np.array(ratio) < 1 - gap))}
+
+
 def summarize(worlds: list[dict], gap: float) -> dict:
     replans = [r for w in worlds for r in w["replans"]]
     first = [f for w in worlds for f in w["first"]]
@@ -198,16 +248,17 @@ def summarize(worlds: list[dict], gap: float) -> dict:
     rmse = np.concatenate([w["rmse"] for w in worlds])
     oracle = np.concatenate([w["rmse_oracle"] for w in worlds])
     four = [s for w in worlds if w["targets"] == 4 for s in w["step_seconds"]]
+    steps = [s for w in worlds for s in w["step_seconds"]]
     return {
         "worlds": len(worlds), "collisions": int(sum(w["collisions"] for w in worlds)),
         "replans": shares(replans, gap),
         "warm_seconds": quantiles([r["seconds"] for r in replans if r["warm"]]),
         "cold_seconds": quantiles([f["seconds"] for f in first]),
         "first_in_goal": float(np.mean([f["in_goal"] for f in first])),
+        "first_outside_goal": outside_goal(first, gap),
         "first_worse_than_routes": int(np.sum(np.array(ratio) > 1 + gap)),
         "objective_over_route_baseline": quantiles(ratio),
-        "step_seconds": {**quantiles([s for w in worlds for s in w["step_seconds"]]),
-                         "mean": float(np.mean([s for w in worlds for s in w["step_seconds"]]))},
+        "step_seconds": {**quantiles(steps), "mean": float(np.mean(steps)) if steps else None},
         "step_seconds_4_targets": {**quantiles(four), "mean": float(np.mean(four)) if four else None},
         "rmse_over_oracle": quantiles(rmse / oracle), "targets_over_3x_oracle": int(np.sum(rmse > 3 * oracle)),
     }
@@ -247,7 +298,7 @@ def main() -> None:
         print(f"{w['seed']:>4} {w['obstacles']:>3} {w['targets']:>3} {s['certified']:>6.1%} {s['feasible']:>6.1%} "
               f"{s['fallback']:>6.1%} {s['failed']:>5.1%} {warm.get('median', 0):>9.3f} {warm.get('p99', 0):>6.3f} "
               f"{warm.get('max', 0):>6.3f} {max(f['seconds'] for f in w['first']):>8.2f} "
-              f"{np.median(w['step_seconds']):>8.3f} {np.mean([f['in_goal'] for f in w['first']]):>7.0%} "
+              f"{quantiles(w['step_seconds']).get('median', np.nan):>8.3f} {np.mean([f['in_goal'] for f in w['first']]):>7.0%} "
               f"{max(ratios, default=np.nan):>9.4f} {w['collisions']:>4} "
               + " ".join(f"{a:.0f}/{b:.0f}" for a, b in zip(w["rmse"], w["rmse_oracle"])))
     overall = summarize(worlds, gap)
