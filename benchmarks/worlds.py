@@ -1,10 +1,12 @@
 """Guidance and the closed loop on generated worlds (issue 12): every figure per world and overall.
 
-    python benchmarks/worlds.py [--worlds 50] [--trials 2] [--steps 50] [--workers N] [--out runs/worlds]
+    python benchmarks/worlds.py [--worlds 50] [--trials 2] [--steps 50] [--replan-budget S]
+                                [--workers N] [--out runs/worlds] [--resume]
 
 Each world's result is kept in ``OUT/worlds/gen-sS.result.json`` as it finishes; a run cut
 off part-way is continued by the same command with ``--resume`` (a kept result is reused
-only if it was made with the same ``--trials`` and ``--steps``).
+only if it was made with the same ``--trials``, ``--steps`` and ``--replan-budget``).
+``--replan-budget`` overrides the generated missions' ``guidance.replan_budget_s``.
 
 World s is ``uavsim world generate --seed s --obstacles s % 16 --targets 1 + s % 8``
 (written to ``OUT/worlds`` and loaded through the mission reader, as a user would).  Per
@@ -153,12 +155,15 @@ def baselines(mission, guidance, target, plan) -> tuple[float, float]:
 
 
 # --------------------------------------------------------------------------- one world
-def run_world(seed: int, folder: str, trials: int, steps: int) -> dict:
+def run_world(seed: int, folder: str, trials: int, steps: int, budget: float | None = None) -> dict:
     with threadpool_limits(limits=1, user_api="blas"):
         path = write_world(seed, Path(folder))
         m = replace(load_mission(path), steps=steps)
+        if budget is not None:
+            m = replace(m, guidance=replace(m.guidance, replan_budget=budget))
         guidance = Guidance(m.world, m.dynamics, m.guidance)
-        out = {"seed": seed, "trials": trials, "steps": steps, "obstacles": m.world.n_obstacles,
+        out = {"seed": seed, "trials": trials, "steps": steps, "replan_budget_override": budget,
+               "obstacles": m.world.n_obstacles,
                "targets": len(m.targets), "area_m": (m.world.area_hi - m.world.area_lo)[:2].tolist(), "first": [],
                "replans": [], "step_seconds": [], "collisions": 0, "rmse": [], "rmse_oracle": []}
         for t in m.targets:  # first plans from the prior mean, against the route baseline
@@ -198,13 +203,14 @@ def result_path(folder: Path, seed: int) -> Path:
     return folder / f"gen-s{seed}.result.json"
 
 
-def kept_result(folder: Path, seed: int, trials: int, steps: int) -> dict | None:
+def kept_result(folder: Path, seed: int, trials: int, steps: int, budget: float | None) -> dict | None:
     """The result an earlier run kept for world ``seed`` with these settings, else None."""
     try:
         kept = json.loads(result_path(folder, seed).read_text())
     except (OSError, ValueError):
         return None
-    return kept if (kept.get("trials"), kept.get("steps")) == (trials, steps) else None
+    same = (kept.get("trials"), kept.get("steps"), kept.get("replan_budget_override")) == (trials, steps, budget)
+    return kept if same else None
 
 
 # --------------------------------------------------------------------------- report
@@ -270,6 +276,7 @@ def main() -> None:
     ap.add_argument("--first", type=int, default=0, help="first seed")
     ap.add_argument("--trials", type=int, default=2)
     ap.add_argument("--steps", type=int, default=50)
+    ap.add_argument("--replan-budget", type=float, default=None, help="guidance.replan_budget_s for every world")
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", default="runs/worlds")
     ap.add_argument("--resume", action="store_true", help="reuse the worlds an earlier run with these settings kept")
@@ -277,11 +284,13 @@ def main() -> None:
     out = Path(args.out)
     seeds = range(args.first, args.first + args.worlds)
     t0 = time.perf_counter()
-    kept = {s: kept_result(out / "worlds", s, args.trials, args.steps) for s in seeds} if args.resume else {}
+    kept = ({s: kept_result(out / "worlds", s, args.trials, args.steps, args.replan_budget) for s in seeds}
+            if args.resume else {})
     todo = [s for s in seeds if kept.get(s) is None]
     print(f"{len(seeds) - len(todo)} worlds kept from an earlier run, {len(todo)} to run", flush=True)
     with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
-        jobs = {pool.submit(run_world, s, str(out / "worlds"), args.trials, args.steps): s for s in todo}
+        jobs = {pool.submit(run_world, s, str(out / "worlds"), args.trials, args.steps, args.replan_budget): s
+                for s in todo}
         for job in as_completed(jobs):
             kept[jobs[job]] = job.result()
             print(f"world {jobs[job]} done ({sum(v is not None for v in kept.values())}/{len(seeds)}, "
