@@ -81,11 +81,18 @@ def trial_seeds(seed: int, trials: int) -> list[np.random.SeedSequence]:
 
 
 # --------------------------------------------------------------------------- one trial
+def one_blas_thread() -> threadpool_limits:
+    """BLAS single-threaded, as every trial runs (one worker per core).  A matrix
+    product's summation order depends on BLAS's thread count, so whatever must reproduce
+    a trial to the last bit (:class:`uavsim.env.UavsimEnv`) runs the same way."""
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSequence,
               guidance: Guidance | None = None, on_step=None, oracle: bool = False) -> TrialResult:
     """Run one trial (BLAS single-threaded); ``on_step(info)`` sees every step; ``oracle``
     see :class:`uavsim.sim.Simulation`."""
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         sim = Simulation(mission, planner, guidance, oracle)
         info = sim.reset(seed)
         if on_step:

@@ -36,7 +36,9 @@ steps long (then ``truncated``; nothing terminates an episode early).
 * ``info`` holds the action mask, the step, the events, and the true states
   (``info["truth"] (M, 6)``) for evaluating a policy, not for a policy to read.
 * ``greedy_action()``: the move the paper's Eq. (13) would choose now (the
-  ``optimized`` policy); stepping with it reproduces ``uavsim run`` exactly.
+  ``optimized`` policy); stepping with it reproduces ``uavsim run`` exactly (the
+  environment computes BLAS single-threaded, as a trial does:
+  :func:`uavsim.campaign.one_blas_thread`).
 * ``render_mode="rerun"`` writes the episode to ``record_path`` as a rerun recording
   (:mod:`uavsim.recording`), headless.
 """
@@ -49,7 +51,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from .campaign import trial_seeds
+from .campaign import one_blas_thread, trial_seeds
 from .config import load_mission
 from .mission import Mission
 from .sim import Simulation
@@ -83,7 +85,8 @@ class UavsimEnv(gym.Env):
         if seed is not None:
             self._seed, self._trial = seed, 0
         self._trial = int((options or {}).get("trial", self._trial))
-        step_info = self.sim.reset(trial_seeds(self._seed, self._trial + 1)[self._trial])
+        with one_blas_thread():
+            step_info = self.sim.reset(trial_seeds(self._seed, self._trial + 1)[self._trial])
         self._close_recorder()
         if self.render_mode == "rerun":
             from .recording import Recorder
@@ -97,7 +100,8 @@ class UavsimEnv(gym.Env):
         cands, ok = self.sim.policy.moves()
         action = int(action)
         invalid = not (0 <= action < len(ok) and ok[action])
-        step_info = self.sim.step(action=0 if invalid else action)
+        with one_blas_thread():
+            step_info = self.sim.step(action=0 if invalid else action)
         if self._recorder is not None:
             self._recorder(step_info)
         reward = -float(np.trace(step_info.cov, axis1=1, axis2=2).sum())
@@ -106,8 +110,9 @@ class UavsimEnv(gym.Env):
 
     def greedy_action(self) -> int:
         """The move Eq. (13) chooses now, on the belief predicted for the next step."""
-        self.sim.prepare()
-        _, scores, best = self.sim.policy.choose(self.sim.belief)
+        with one_blas_thread():
+            self.sim.prepare()
+            _, scores, best = self.sim.policy.choose(self.sim.belief)
         return best if np.isfinite(scores[best]) else 0
 
     def _observation(self, step_info) -> dict:
