@@ -31,10 +31,10 @@ Printed and written to ``OUT/worlds.json``: per world the share of re-plans cert
 per target (median, p90, p99, max); closed-loop median and mean step seconds; each
 target's time-averaged RMSE with its own guidance and with the truth's forces; whether
 each first plan ends in its goal region (and, if not, how far from it and its in-goal
-baseline); collisions of any plan with any obstacle by a
-point-and-segment check against the raw cuboids (world.in_obstacle and
-world.segment_blocked, independent of the solver's inflated faces), from the first step
-a plan is required to avoid (a belief inside an obstacle's margin is allowed out first).
+baseline); collisions of any plan with any obstacle by a point-and-segment check against
+the raw cuboids (world.in_obstacle and world.segment_blocked, independent of the
+solver's inflated faces), from the first step a plan is required to avoid (a belief
+inside an obstacle's margin is allowed out first).
 """
 
 from __future__ import annotations
@@ -163,9 +163,9 @@ def run_world(seed: int, folder: str, trials: int, steps: int, budget: float | N
             m = replace(m, guidance=replace(m.guidance, replan_budget=budget))
         guidance = Guidance(m.world, m.dynamics, m.guidance)
         out = {"seed": seed, "trials": trials, "steps": steps, "replan_budget_override": budget,
-               "obstacles": m.world.n_obstacles,
-               "targets": len(m.targets), "area_m": (m.world.area_hi - m.world.area_lo)[:2].tolist(), "first": [],
-               "replans": [], "step_seconds": [], "collisions": 0, "rmse": [], "rmse_oracle": []}
+               "obstacles": m.world.n_obstacles, "targets": len(m.targets),
+               "area_m": (m.world.area_hi - m.world.area_lo)[:2].tolist(), "first": [], "replans": [],
+               "step_seconds": [], "collisions": 0, "rmse": [], "rmse_oracle": []}
         for t in m.targets:  # first plans from the prior mean, against the route baseline
             plan = guidance.plan(t.mean0, t.cov0, m.world.goals[t.goal].centroid)
             route, ending_in = baselines(m, guidance, t, plan)
@@ -307,7 +307,8 @@ def main() -> None:
         print(f"{w['seed']:>4} {w['obstacles']:>3} {w['targets']:>3} {s['certified']:>6.1%} {s['feasible']:>6.1%} "
               f"{s['fallback']:>6.1%} {s['failed']:>5.1%} {warm.get('median', 0):>9.3f} {warm.get('p99', 0):>6.3f} "
               f"{warm.get('max', 0):>6.3f} {max(f['seconds'] for f in w['first']):>8.2f} "
-              f"{quantiles(w['step_seconds']).get('median', np.nan):>8.3f} {np.mean([f['in_goal'] for f in w['first']]):>7.0%} "
+              f"{quantiles(w['step_seconds']).get('median', np.nan):>8.3f} "
+              f"{np.mean([f['in_goal'] for f in w['first']]):>7.0%} "
               f"{max(ratios, default=np.nan):>9.4f} {w['collisions']:>4} "
               + " ".join(f"{a:.0f}/{b:.0f}" for a, b in zip(w["rmse"], w["rmse_oracle"])))
     overall = summarize(worlds, gap)
