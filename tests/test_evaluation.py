@@ -139,20 +139,24 @@ def test_a_planners_fingerprint_leaves_out_the_other_planners_settings():
     assert fingerprint(m, "circle") != fingerprint(other, "circle")
 
 
-# fingerprint(small(), "optimized") computed at commit f503995, before plan_clusters existed
+# fingerprint(small(), "optimized") computed at commit f503995, before plan_clusters existed,
+# when paper.toml's guidance.replan_budget_s was 0.25 (it is 1.0 since issue 12)
 PAPER_SMALL_FINGERPRINT = "ef13a88e7f43c7c662d0e9dbe8aad1cf4a46333073f606a6340a8d988bc22991"
 
 
 def test_the_filters_plan_clusters_is_in_the_fingerprint_unless_it_is_the_old_behaviour():
     """One plan from the mean (plan_clusters = 1, what every campaign before the setting
     did) leaves the fingerprint as it was before the setting existed, so those campaign
-    folders still resume; two plans change it."""
+    folders still resume; two plans change it. The mission is taken with the re-plan
+    budget it had then (0.25 s): a changed budget is a changed setting, and changes it too."""
     from uavsim.campaign import fingerprint
 
-    m = small()
+    old = {"guidance.replan_budget_s": 0.25}
+    m = small(**old)
     assert m.filter.plan_clusters == 1
     assert fingerprint(m, "optimized") == PAPER_SMALL_FINGERPRINT
-    assert fingerprint(small(**{"filter.plan_clusters": 2}), "optimized") != PAPER_SMALL_FINGERPRINT
+    assert fingerprint(small(**old, **{"filter.plan_clusters": 2}), "optimized") != PAPER_SMALL_FINGERPRINT
+    assert fingerprint(small(), "optimized") != PAPER_SMALL_FINGERPRINT
 
 
 def test_baseline_does_not_depend_on_sensor_or_planner_settings(tmp_path, capsys):

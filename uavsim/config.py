@@ -437,7 +437,7 @@ def _guidance(t: _Table) -> GuidanceConfig:
         clearance=t.number("clearance_m", default=0.0, lo=0),
         gap=t.number("gap", default=1e-4, lo=0, lo_open=True, hi=1),
         time_limit=t.number("time_limit_s", default=10.0, lo=0, lo_open=True),
-        replan_budget=t.number("replan_budget_s", default=0.25, lo=0, lo_open=True),
+        replan_budget=t.number("replan_budget_s", default=1.0, lo=0, lo_open=True),
         horizon_mode=t.string("horizon_mode", default="receding", choices=("receding", "shrinking")),
     )
     t.finish()

@@ -70,7 +70,7 @@ class Settings:
     clearance_m: float = 1.0
     gap: float = 1e-4
     time_limit_s: float = 10.0
-    replan_budget_s: float = 0.25
+    replan_budget_s: float = 1.0
     particles: int = 5000
     resample_threshold: float = 0.5
     roughening: float = 0.0

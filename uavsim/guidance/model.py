@@ -78,7 +78,7 @@ class GuidanceConfig:
     gap: float
     time_limit: float
     horizon_mode: str = "receding"
-    replan_budget: float = 0.25
+    replan_budget: float = 1.0
 
 
 @dataclass(frozen=True, eq=False)
