@@ -244,7 +244,7 @@ def screenshot(rrd: str | Path, png: str | Path, max_size: int | None = None, st
     3 of 9 trials here.  The client pins the time cursor, and frames are taken until two
     in a row are identical (the last chunks can arrive after ``open`` returns).
     """
-    import os
+    import shutil
     import socket
     import sysconfig
     import time
@@ -255,9 +255,8 @@ def screenshot(rrd: str | Path, png: str | Path, max_size: int | None = None, st
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     # The viewer installed with this interpreter's rerun-sdk, found without an activated venv.
-    beside = Path(sysconfig.get_path("scripts")) / ("rerun.exe" if os.name == "nt" else "rerun")
-    viewer = ViewerClient.spawn(headless=True, port=port, hide_welcome_screen=True,
-                                executable_path=str(beside) if beside.exists() else None)
+    beside = shutil.which("rerun", path=sysconfig.get_path("scripts"))
+    viewer = ViewerClient.spawn(headless=True, port=port, hide_welcome_screen=True, executable_path=beside)
     try:
         viewer.open(str(Path(rrd).resolve()))
         state = viewer.get_state()
