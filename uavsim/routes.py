@@ -195,14 +195,29 @@ def _scene(lo, hi, area_lo, area_hi) -> _Scene:
     return _Scene(all_lo, all_hi, len(lo), a, b, tol, pinches(all_lo, all_hi, tol, skip_last=4))
 
 
-def _nodes(scene: _Scene, terminals: np.ndarray) -> np.ndarray:
-    """(N, 2): the terminals (start, goal), then the usable rectangle corners."""
+def _nodes(scene: _Scene, terminals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Nodes ``(N, 2)``: the terminals (start, goal), then the usable rectangle corners; and
+    each node's tangent sign ``(N,)``: +1 for a corner of exactly one rectangle that a
+    shortest path can only leave with ``d_x d_y >= 0`` (its top-left and bottom-right
+    corners), -1 for ``d_x d_y <= 0`` (bottom-left, top-right), 0 for no restriction
+    (terminals; corners shared by rectangles; every node when a terminal is inside a
+    rectangle: a path from inside ignores that rectangle, and the corners it would bend at
+    may be hidden in it)."""
     lo, hi, tol, n = scene.lo, scene.hi, scene.tol, scene.n
     corners = np.stack([lo[:n], np.column_stack([hi[:n, 0], lo[:n, 1]]), hi[:n],
-                        np.column_stack([lo[:n, 0], hi[:n, 1]])], 1)
-    c = np.unique(corners.reshape(-1, 2), axis=0)
+                        np.column_stack([lo[:n, 0], hi[:n, 1]])], 1)  # BL, BR, TR, TL
+    c, first, count = np.unique(corners.reshape(-1, 2), axis=0, return_index=True, return_counts=True)
+    sign = np.where(count == 1, np.array([-1, 1, -1, 1])[first % 4], 0) * (not _inside_any(scene, terminals).any())
     ok = ~np.any(np.all((c[:, None] > lo + tol) & (c[:, None] < hi - tol), axis=-1), axis=1)
-    return np.vstack([terminals, c[ok]])
+    return np.vstack([terminals, c[ok]]), np.r_[np.zeros(len(terminals), int), sign[ok]]
+
+
+def _tangent(d: np.ndarray, sign: np.ndarray) -> np.ndarray:
+    """(P,) bool: direction ``d (P, 2)`` leaves a node of tangent ``sign (P,)`` along or
+    outside its rectangle (a path that turns into the rectangle's quadrant there is never
+    shortest: its bend could be cut).  See :func:`_nodes`."""
+    prod = d[:, 0] * d[:, 1]
+    return (sign == 0) | (sign * prod >= 0)
 
 
 def _touches(scene: _Scene, p0, p1, walls) -> np.ndarray:
@@ -213,23 +228,54 @@ def _touches(scene: _Scene, p0, p1, walls) -> np.ndarray:
     return np.any(d <= scene.tol, axis=1)
 
 
+def _inside_any(scene: _Scene, points: np.ndarray) -> np.ndarray:
+    """(P,) bool: point inside an open rectangle (a terminal in a margin): a segment from
+    it ignores that rectangle, so the corner it goes to need not be a tangent one."""
+    return np.any(np.all((points[:, None] > scene.lo + scene.tol) & (points[:, None] < scene.hi - scene.tol), axis=-1),
+                  axis=1)
+
+
+def _crosses(a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """(P, n) bool: the open segment ``a -> b (P, 2)`` meets the open box n.
+
+    Separating axes: the segment's bounding box against the box's (x and y axes), and the
+    segment's normal, on which the box spans its centre's value +- its support
+    ``|d_y| h_x + |d_x| h_y``.  A segment through a corner or along an edge does not meet it."""
+    d = b - a
+    c, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
+    mn, mx = np.minimum(a, b), np.maximum(a, b)
+    hit = (mx[:, None, 0] > lo[:, 0]) & (mn[:, None, 0] < hi[:, 0]) & (mx[:, None, 1] > lo[:, 1])
+    hit &= mn[:, None, 1] < hi[:, 1]
+    cross = d[:, None, 0] * (c[:, 1] - a[:, None, 1]) - d[:, None, 1] * (c[:, 0] - a[:, None, 0])
+    return hit & (np.abs(cross) < np.abs(d[:, None, 1]) * h[:, 0] + np.abs(d[:, None, 0]) * h[:, 1])
+
+
 def _sees(scene: _Scene, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """(P,) bool: the open segment ``a -> b (P, 2)`` misses every open rectangle and
     touches no pinch.  A rectangle containing an end is ignored (only a start or goal
-    can be inside one: corners inside are not nodes), so a terminal may leave it."""
+    can be inside one: corners inside are not nodes), so a terminal may leave it.
+    Computed in chunks of about a million segment-rectangle pairs."""
     lo, hi = scene.lo + scene.tol, scene.hi - scene.tol
-    hit = _clip(a, b, lo, hi, closed=False)  # (P, n + 4)
-    for end in (a, b):
-        hit &= ~np.all((end[:, None] > lo) & (end[:, None] < hi), axis=-1)
-    ok = ~hit.any(axis=1)
+    ok = np.ones(len(a), dtype=bool)
+    step = max(1, 2**20 // len(lo))
+    for k in range(0, len(a), step):
+        sa, sb = a[k:k + step], b[k:k + step]
+        hit = _crosses(sa, sb, lo, hi)  # (P, n + 4)
+        for end in (sa, sb):
+            hit &= ~np.all((end[:, None] > lo) & (end[:, None] < hi), axis=-1)
+        ok[k:k + step] = ~hit.any(axis=1)
     ok[ok] = ~_touches(scene, a[ok], b[ok], scene.walls)
     return ok
 
 
 def _graph(scene: _Scene, terminals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Nodes ``(N, 2)`` and the visible pairs ``(P, 2)`` with their lengths ``(P,)``."""
-    nodes = _nodes(scene, terminals)
+    """Nodes ``(N, 2)`` and the visible pairs ``(P, 2)`` with their lengths ``(P,)``, less
+    the pairs no shortest path uses (not tangent at a corner, :func:`_tangent`)."""
+    nodes, sign = _nodes(scene, terminals)
     i, j = np.triu_indices(len(nodes), 1)
+    d = nodes[j] - nodes[i]
+    keep = _tangent(d, sign[i]) & _tangent(d, sign[j])
+    i, j = i[keep], j[keep]
     ok = _sees(scene, nodes[i], nodes[j])
     pairs = np.column_stack([i[ok], j[ok]])
     return nodes, pairs, np.linalg.norm(nodes[pairs[:, 1]] - nodes[pairs[:, 0]], axis=1)
@@ -317,15 +363,23 @@ class GoalField:
     def __init__(self, goal, lo, hi, area_lo, area_hi):
         self.scene = _scene(lo, hi, area_lo, area_hi)
         self.nodes, pairs, length = _graph(self.scene, _xy(goal)[None])
+        self.sign = _nodes(self.scene, _xy(goal)[None])[1]
         self.dist, _ = _dijkstra(self.nodes, pairs, length, 0)
 
     def lengths(self, starts: np.ndarray) -> np.ndarray:
-        """``(m,)`` lengths from ``starts (m, 2)`` (inf where no path exists)."""
+        """``(m,)`` lengths from ``starts (m, 2)`` (inf where no path exists).  A start
+        inside a rectangle (in a margin) gets a graph of its own (:func:`_nodes`)."""
         starts = np.reshape(np.asarray(starts, dtype=float), (-1, 2))
         m, n = len(starts), len(self.nodes)
         a, b = np.repeat(starts, n, axis=0), np.tile(self.nodes, (m, 1))
-        total = np.where(_sees(self.scene, a, b), np.linalg.norm(b - a, axis=1) + np.tile(self.dist, m), np.inf)
-        return total.reshape(m, n).min(axis=1)
+        total = np.linalg.norm(b - a, axis=1) + np.tile(self.dist, m)
+        try_ = np.isfinite(total) & _tangent(b - a, np.tile(self.sign, m))
+        try_[try_] = _sees(self.scene, a[try_], b[try_])
+        out = np.where(try_, total, np.inf).reshape(m, n).min(axis=1)
+        for k in np.flatnonzero(_inside_any(self.scene, starts)):
+            route = _route(self.scene, _graph(self.scene, np.array([starts[k], self.nodes[0]])))
+            out[k] = np.inf if route is None else route.length
+        return out
 
 
 def path_lengths(starts, goal, lo, hi, area_lo, area_hi) -> np.ndarray:
