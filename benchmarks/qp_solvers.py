@@ -19,7 +19,7 @@ warm start from the previous plan), the objective's relative error against Clara
 1e-11 tolerances, and the infeasible QPs it detected, and any verdict it got wrong.
 
 ``calibrate`` fits the nominal QP cost of the guidance budgets
-(``uavsim.guidance.QP_SECONDS + QP_SECONDS_PER_NNZ * nnz``) to the mean CPU seconds per
+(``uavsim.guidance.oa.QP_SECONDS + QP_SECONDS_PER_NNZ * nnz``) to the mean CPU seconds per
 QP of rolling re-plans at several horizons, on the paper mission and the worlds.
 """
 
@@ -166,7 +166,10 @@ class Dense:
         k = self.k = self.qp.condensed
         s_t = k.s[k.term]
         self.h = 2.0 * s_t.T @ (k.w[:, None] * s_t)
-        self.n, self.m = len(k.r_inv), len(k.rows)
+        self.n = len(k.r_inv)
+        r = np.linalg.inv(k.r_inv)  # every general row on u: the kept ones, then one per binary (rows_for's ids)
+        self.g = np.vstack([k.a_w[self.n:] @ r, k.face_w[k.avoid_rep] @ r])
+        self.m = len(self.g)
 
     def data(self, lo, hi, y, relax):
         k = self.k
@@ -276,7 +279,7 @@ class DaqpHot:
         self.hot = hot
         n, m = self.d.n, self.d.m
         self.model = daqp.Model()
-        self.model.setup(self.d.h, np.zeros(n), self.d.k.g, np.full(n + m, 1e30), np.full(n + m, -1e30),
+        self.model.setup(self.d.h, np.zeros(n), self.d.g, np.full(n + m, 1e30), np.full(n + m, -1e30),
                          np.zeros(n + m, dtype=np.intc))
         self.model.settings = {"primal_tol": 1e-9, "iter_limit": 2000}
         self.active = np.zeros(n + m, dtype=np.intc)
@@ -322,7 +325,7 @@ class ProxQP:
     def solve(self, lo, hi, y, relax, first):
         lin, ctx, lb, ub, glo, ghi = self.d.data(lo, hi, y, relax)
         if not self.ready:
-            self.qp.init(self.d.h, lin, None, None, self.d.k.g, glo, ghi, lb, ub)
+            self.qp.init(self.d.h, lin, None, None, self.d.g, glo, ghi, lb, ub)
             self.ready = True
         else:
             self.qp.update(g=lin, l=glo, u=ghi, l_box=lb, u_box=ub)
@@ -373,7 +376,7 @@ class PiqpDense:
         s = self.piqp.DenseSolver()
         s.settings.eps_abs, s.settings.eps_rel, s.settings.verbose = 1e-9, 0.0, False
         inf = lambda v: np.where(np.abs(v) >= 1e20, np.sign(v) * np.inf, v)  # noqa: E731  PIQP's infinity
-        s.setup(self.h, lin, None, None, np.asfortranarray(self.d.k.g[kept]), inf(glo[kept]), inf(ghi[kept]),
+        s.setup(self.h, lin, None, None, np.asfortranarray(self.d.g[kept]), inf(glo[kept]), inf(ghi[kept]),
                 inf(lb), inf(ub))
         return piqp_answer(self.piqp, s, lambda x: self.d.objective(x, ctx))
 
@@ -519,10 +522,10 @@ def report(out, ref) -> dict:
 
 # --------------------------------------------------------------------------- calibrate
 def calibrate(args) -> None:
-    """Fit the nominal QP cost ``QP_SECONDS + QP_SECONDS_PER_NNZ * nnz`` (uavsim.guidance)
+    """Fit the nominal QP cost ``QP_SECONDS + QP_SECONDS_PER_NNZ * nnz`` (uavsim.guidance.oa)
     to the mean CPU seconds of the QPs the solver really solves: rolling re-plans of every
     target at several horizons on the paper mission and the generated worlds."""
-    from uavsim.guidance import QP_SECONDS, QP_SECONDS_PER_NNZ
+    from uavsim.guidance.oa import QP_SECONDS, QP_SECONDS_PER_NNZ
 
     rng = np.random.default_rng(args.seed)
     folder = Path(args.out).parent / "qp-worlds"

@@ -8,9 +8,10 @@ a :class:`Plan`.
 
 **Budgets.**  A first plan (no previous plan to start from) may spend
 ``time_limit_s``; a re-plan ``replan_budget_s``.  Both are counted in fixed-face QPs, at
-the nominal cost :data:`QP_SECONDS` plus :data:`QP_SECONDS_PER_NNZ` per non-zero of the
-program (measured on this project's reference machine, 2 cores), so a plan depends on its
-inputs only: campaigns stay bit-identical on any machine and for any number of workers.
+the nominal cost :data:`.oa.QP_SECONDS` plus :data:`.oa.QP_SECONDS_PER_NNZ` per non-zero
+of the program less the obstacles the plan cannot touch (measured on this project's
+reference machine, 2 cores), so a plan depends on its inputs only: campaigns stay
+bit-identical on any machine and for any number of workers.
 A wall-clock cap of :data:`WALL_CAP` times the budget stops a solve that runs far slower
 than nominal; the plan then says so.  Within its budget a solve returns the best
 collision-free plan it has, with its certified gap (status "feasible" when above the
@@ -33,10 +34,6 @@ from .model import KN, GuidanceConfig, build_p1, geometry
 from .oa import Budget, OuterApproximation
 
 SOLVERS = ("highs", "scip")
-# nominal cost of one fixed-face QP (Clarabel's on the reference machine).  Kept through issue 17:
-# a budget is a user-facing nominal quantity and its QP count sets the plans; DAQP's QPs cost about
-# 0.3 ms + 0.05 us per non-zero (`benchmarks/qp_solvers.py calibrate`), so a solve finishes sooner
-QP_SECONDS, QP_SECONDS_PER_NNZ = 2e-3, 0.4e-6
 WALL_CAP = 4.0  # a solve stops at this many times its nominal budget, plus one second
 SENSITIVITY_STEP = np.array([1e-3, 1e-3, 1e-4, 1e-4])  # m, m, m/s, m/s (Guidance.sensitivity)
 
@@ -131,11 +128,10 @@ class Guidance:
             self._models[horizon] = (reach, oa)
         return self._models[horizon]
 
-    def budget(self, horizon: int, seconds: float, master: bool) -> Budget:
-        """A :class:`Budget` of ``seconds`` nominal QP time for this horizon's program."""
-        _, oa = self._model(horizon)
-        per_qp = QP_SECONDS + QP_SECONDS_PER_NNZ * oa.c.a.nnz
-        return Budget(max(1, int(seconds / per_qp)), time.perf_counter() + WALL_CAP * seconds + 1.0, master)
+    @staticmethod
+    def budget(seconds: float, master: bool) -> Budget:
+        """A :class:`Budget` of ``seconds`` nominal QP time (counted in QPs by the solver)."""
+        return Budget(seconds, time.perf_counter() + WALL_CAP * seconds + 1.0, master)
 
     def horizon_at(self, step: int) -> int:
         """Horizon of the re-plan at mission step ``step`` (0 = the first plan).
@@ -237,7 +233,7 @@ class Guidance:
         else:
             shifted = None if warm is None or warm.faces is None else _shift_warm(warm, horizon)
             seconds = self.cfg.time_limit if warm is None else self.cfg.replan_budget
-            sol = oa.solve(x0, goal[:2], self.budget(horizon, seconds, master=warm is None), shifted)
+            sol = oa.solve(x0, goal[:2], self.budget(seconds, master=warm is None), shifted)
             status, obj, lb, it, msg = sol.status, sol.objective, sol.lower_bound, sol.iterations, sol.message
             u, faces, terms = (None, None, None) if sol.plan is None else (sol.plan.u, sol.plan.y, sol.plan.s)
         if u is None:

@@ -93,6 +93,13 @@ class Reach:
         return lo, hi
 
 
+def redundant(face_lo: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(T-1, n)`` bool: (step, obstacle) pairs where every reachable point is beyond
+    some face, so the obstacle cannot be hit at that step and its avoidance rows are
+    redundant (a QP may leave them out; :func:`prune` fixes that face on)."""
+    return (face_lo[:, None, :] >= b).any(axis=2)
+
+
 def stuck_pairs(face_hi: np.ndarray, b: np.ndarray) -> np.ndarray:
     """``(T-1, n)`` bool: (step, obstacle) pairs where no reachable point is beyond any face,
     i.e. the target cannot be out of that inflated obstacle at that step whatever it does
@@ -118,7 +125,7 @@ def prune(face_lo: np.ndarray, face_hi: np.ndarray, b: np.ndarray,
     surely = face_lo[:, None, :] >= b
     y_lo = (~reachable).astype(float)
     y_hi = np.ones_like(y_lo)
-    free = surely.any(axis=2)
+    free = redundant(face_lo, b)
     pick = np.argmax(surely, axis=2)
     onehot = np.arange(4)[None, None, :] == pick[..., None]
     y_lo = np.where(free[..., None], (~onehot).astype(float), y_lo)

@@ -65,7 +65,7 @@ import scipy.sparse as sp
 
 from ..routes import distinct_routes
 from .compiled import INF, Compiled, new_highs, pass_model
-from .faces import Reach, binding_faces, choose_faces, extend_faces, inside, prune, stuck_pairs, tight_big_m
+from .faces import Reach, binding_faces, choose_faces, extend_faces, inside, prune, redundant, stuck_pairs, tight_big_m
 from .model import Geometry
 from .qp import FixedFaceQP, QpSolution
 
@@ -75,20 +75,29 @@ NO_PLAN_AT_ALL = "no plan meets the speed, force and area limits even without ob
 ROUTES = 3  # topologically distinct shortest routes that seed the face choices of a first plan
 
 
+# nominal cost of one fixed-face QP: QP_SECONDS + QP_SECONDS_PER_NNZ per non-zero of the program
+# without the obstacles a plan cannot touch (Clarabel's cost on the reference machine; DAQP's
+# QPs cost about 0.3 ms + 0.05 us per non-zero, `benchmarks/qp_solvers.py calibrate`)
+QP_SECONDS, QP_SECONDS_PER_NNZ = 2e-3, 0.4e-6
+
+
 @dataclass
 class Budget:
-    """What one solve may spend: ``qps`` fixed-face QPs, counted, so that a plan depends on
-    its inputs only and not on the machine's speed or load (campaigns stay bit-identical for
-    any number of workers); ``deadline`` (``time.perf_counter``) caps the wall clock as a
-    safety net, and ``capped`` records that it, not the count, stopped the solve (the plan
-    may then differ on another machine).  ``master``: whether the MILP master may run
-    (HiGHS's root work is bounded by time only, so only cold plans use it).  A solve with
-    no feasible plan yet keeps going past ``qps`` until the deadline."""
+    """What one solve may spend: ``seconds`` of nominal QP time, turned into a count of
+    fixed-face QPs (``qps``) by the solver once it knows which obstacles the plan can touch
+    (:meth:`OuterApproximation.qp_seconds`), so that a plan depends on its inputs only and
+    not on the machine's speed or load (campaigns stay bit-identical for any number of
+    workers); ``deadline`` (``time.perf_counter``) caps the wall clock as a safety net, and
+    ``capped`` records that it, not the count, stopped the solve (the plan may then differ
+    on another machine).  ``master``: whether the MILP master may run (HiGHS's root work is
+    bounded by time only, so only cold plans use it).  A solve with no feasible plan yet
+    keeps going past ``qps`` until the deadline."""
 
-    qps: int
+    seconds: float
     deadline: float
     master: bool = False
     capped: bool = False
+    qps: int | None = None
 
     def take(self, need: bool = False) -> bool:
         """Spend one QP if the count allows (or ``need``: no plan yet), before the deadline."""
@@ -127,13 +136,15 @@ class Solution:
 @dataclass(eq=False)
 class _Context:
     """One solve's inputs, shared by its pieces: row bounds ``lo, hi``, face offsets
-    ``b (T-1, n, 4)``, ``stuck (T-1, n)`` pairs, the obstacle-free optimum, the start,
-    the goal, the budget and the cut points met so far."""
+    ``b (T-1, n, 4)``, ``stuck (T-1, n)`` pairs, ``needed (T-1, n)`` the pairs whose
+    avoidance rows a QP needs (:func:`.faces.redundant`), the obstacle-free optimum, the
+    start, the goal, the budget and the cut points met so far."""
 
     lo: np.ndarray
     hi: np.ndarray
     b: np.ndarray
     stuck: np.ndarray
+    needed: np.ndarray
     relax: QpSolution
     x0: np.ndarray
     goal: np.ndarray
@@ -176,6 +187,16 @@ class OuterApproximation:
         self.integrality = np.zeros(c.n_cols + k)
         self.integrality[c.y_cols.ravel()] = 1
         self.avoid_rows = np.flatnonzero(c.row_y >= 0)
+        per_obstacle = np.zeros(c.a.shape[0], bool)
+        per_obstacle[self.avoid_rows], per_obstacle[c.sum_rows] = True, True
+        per_row = np.diff(c.a.indptr)
+        self.nnz_base = int(per_row[~per_obstacle].sum())
+        self.nnz_obstacle = per_row[per_obstacle].sum() / max(self.shape[1], 1)
+
+    def qp_seconds(self, obstacles: int) -> float:
+        """Nominal seconds of one QP of the program with ``obstacles`` obstacles a plan can
+        touch (the others' rows are redundant and left out of every QP)."""
+        return QP_SECONDS + QP_SECONDS_PER_NNZ * (self.nnz_base + self.nnz_obstacle * obstacles)
 
     # ------------------------------------------------------------------ public
     def solve(self, x0: np.ndarray, goal: np.ndarray, budget: Budget,
@@ -218,13 +239,17 @@ class OuterApproximation:
         stuck = stuck_pairs(face_hi, b)
         if escape:
             stuck[:escape, near] = True
+        needed = ~redundant(face_lo, b) & ~stuck
+        if budget.qps is None:
+            budget.qps = max(1, int(budget.seconds / self.qp_seconds(int(needed.any(axis=0).sum()))))
         if not np.any((inside(relax.x[2:, :2], b) > 1e-7) & ~stuck):  # the obstacle-free optimum is clear
             y = choose_faces(relax.x[2:, :2], b, *prune(face_lo, face_hi, b, stuck))
             plan = self._reference(lo, hi, replace(relax, y=y))
             return self._noted(Solution("optimal", plan.f, min(relax.f, plan.f), 0.0, 0, plan), stuck, budget)
         hi[self.c.sum_rows] = np.where(stuck.reshape(-1), 4.0, 3.0)  # Eq. (8e) off for stuck pairs
         bounds = prune(face_lo, face_hi, b, stuck)
-        ctx = _Context(lo, hi, b, stuck, relax, x0, goal, budget, [relax.s] + ([warm[1]] if warm is not None else []))
+        ctx = _Context(lo, hi, b, stuck, needed, relax, x0, goal, budget,
+                       [relax.s] + ([warm[1]] if warm is not None else []))
         best = self._upper_bound(ctx, warm, bounds)
         sol = self._loop(ctx, best)
         if sol.plan is not None:
@@ -256,7 +281,7 @@ class OuterApproximation:
         """The fixed-face QP, if the budget allows (always while no plan exists yet)."""
         if not ctx.budget.take(need=best is None):
             return None
-        sol = self.qp.solve(ctx.lo, ctx.hi, y)
+        sol = self.qp.solve(ctx.lo, ctx.hi, y, needed=ctx.needed)
         if sol is not None:
             ctx.points.append(sol.s)
         return sol
@@ -431,7 +456,10 @@ class OuterApproximation:
         """
         ub = np.inf if best is None else best.f
         relaxed = None if best is None else (ctx.relax.x[2:, :2], ctx.relax.f)
-        bounds = prune(*self.reach.face_bounds(ctx.x0, ctx.goal, ub, relaxed), ctx.b, ctx.stuck)
+        face_lo, face_hi = self.reach.face_bounds(ctx.x0, ctx.goal, ub, relaxed)
+        bounds = prune(face_lo, face_hi, ctx.b, ctx.stuck)
+        # a node's optimum below the cutoff is within the bounds, where these rows hold
+        needed = ctx.needed & ~redundant(face_lo, ctx.b)
         cutoff = np.inf if best is None else best.f - self.gap * max(best.f, 1.0) * (1 - 1e-9)
         if bounds is None:  # no plan with f <= UB beyond the incumbent
             return best, min(cutoff, ub), True
@@ -447,7 +475,7 @@ class OuterApproximation:
             if solved >= limit or not ctx.budget.take():
                 return best, bound, False
             _, _, y = heapq.heappop(heap)
-            sol = self.qp.solve(ctx.lo, ctx.hi, y, bound=True)
+            sol = self.qp.solve(ctx.lo, ctx.hi, y, bound=True, needed=needed)
             solved += 1
             if sol is None or sol.f >= cutoff:
                 continue

@@ -110,7 +110,7 @@ class FixedFaceQP:
         self._context = None
 
     def solve(self, lo: np.ndarray, hi: np.ndarray, y: np.ndarray, relax: bool = False,
-              bound: bool = False) -> QpSolution | None:
+              bound: bool = False, needed: np.ndarray | None = None) -> QpSolution | None:
         """Optimal plan for face choice ``y (T-1, n, 4)`` and row bounds ``lo, hi`` (the
         current parameters).  ``relax`` drops Eq. (8d)-(8e) entirely: the obstacle-free
         QP, a relaxation of P1.  Returns None when the QP is infeasible.
@@ -118,9 +118,14 @@ class FixedFaceQP:
         ``bound``: the verdict bounds P1 (a branch-and-bound node, a no-good cut), so an
         infeasible verdict of DAQP, which comes without a certificate, is confirmed by
         Clarabel (as is always the relaxation's, P1's own verdict).
+
+        ``needed (T-1, n)`` bool: the fast path keeps avoidance rows only for these (step,
+        obstacle) pairs; the caller vouches that the others' active faces hold at every
+        plan it could use (in practice: at every plan within the reachable set, so the
+        rows are redundant).
         """
         if self.condensed is not None:
-            settled, sol = self._solve_daqp(lo, hi, y, relax)
+            settled, sol = self._solve_daqp(lo, hi, y, relax, needed)
             if settled and sol is not None:
                 self.counts["daqp"] += 1
                 return sol
@@ -128,14 +133,14 @@ class FixedFaceQP:
                 self.counts["daqp infeasible"] += 1
                 return None
             if settled:
-                ref = self.fallback.solve(lo, hi, y, relax)
+                ref = self.fallback.solve(lo, hi, y, relax, needed)
                 self.counts["confirmed infeasible" if ref is None else "overruled"] += 1
                 if ref is not None:
                     LOG.info("fixed-face QP: DAQP's infeasible verdict overruled by Clarabel (objective %.6g)", ref.f)
                 return None if ref is None else replace(ref, solved=(y, relax))
             LOG.info("fixed-face QP: DAQP did not settle it; Clarabel solves it")
         self.counts["clarabel"] += 1
-        sol = self.fallback.solve(lo, hi, y, relax)
+        sol = self.fallback.solve(lo, hi, y, relax, needed)
         return None if sol is None else replace(sol, solved=(y, relax))
 
     def reference(self, lo: np.ndarray, hi: np.ndarray, sol: QpSolution) -> QpSolution:
@@ -148,7 +153,7 @@ class FixedFaceQP:
         ref = self.fallback.solve(lo, hi, *sol.solved)
         return sol if ref is None else replace(ref, y=sol.y, solved=sol.solved)
 
-    def _solve_daqp(self, lo, hi, y, relax) -> tuple[bool, QpSolution | None]:
+    def _solve_daqp(self, lo, hi, y, relax, needed=None) -> tuple[bool, QpSolution | None]:
         """``(settled, solution)``: settled is False where Clarabel must decide.
 
         The speed-polygon rows (800 of ~1200 on the paper mission, none active in most
@@ -165,10 +170,11 @@ class FixedFaceQP:
             if not np.array_equal(lo[k.eq], hi[k.eq]):
                 return False, None  # an equality row given as a range: not the program condensed
             ctx = self._context = k.context(lo, hi)
-        rows, rlo, rhi = k.rows_for(y, relax, ctx)
+        rows, rlo, rhi = k.rows_for(y, relax, ctx, needed)
         if np.any(rlo > rhi):
             return False, None
-        lazy = np.flatnonzero(k.lazy[rows])  # rows_for keeps every general row but avoidance: all of them
+        a_all = k.matrix(rows)
+        lazy = k.lazy_rows(rows)  # rows_for keeps every general row but avoidance: all of them
         use = np.ones(len(rows), bool)
         use[lazy] = False
         working = np.zeros(0, int), np.zeros(0, np.intc)
@@ -176,7 +182,7 @@ class FixedFaceQP:
             if attempt == LAZY_ROUNDS:
                 use[:] = True
             sub = rows[use]
-            a = k.a_w[sub]
+            a = a_all[use]
             flag, w, lam, working = _daqp(k, a, sub, rlo[use], rhi[use], ctx, working)
             if flag != DAQP_OPTIMAL:
                 return flag == DAQP_INFEASIBLE, None
@@ -196,7 +202,7 @@ class FixedFaceQP:
 
 
 def _daqp(k: "Condensed", a, rows, rlo, rhi, ctx, working) -> tuple[int, np.ndarray, np.ndarray, tuple]:
-    """DAQP on ``rlo <= a w <= rhi`` (``a`` the rows ``rows`` of ``k.a_w``), started from
+    """DAQP on ``rlo <= a w <= rhi`` (``a`` the rows ``rows``, :meth:`Condensed.matrix`), started from
     ``working = (rows, sense)`` (the previous round's working set; sense 1 upper, 3 lower).
     Returns DAQP's flag, ``w``, the multipliers and the new working set."""
     sense = np.zeros(len(rows), dtype=np.intc)
@@ -216,7 +222,8 @@ def _daqp(k: "Condensed", a, rows, rlo, rhi, ctx, working) -> tuple[int, np.ndar
 class _Context:
     """What the row bounds ``lo, hi`` (one start and goal) fix: ``z0 = P b_E``, the linear
     term in ``w`` (``lin_w = R^-T g``), the constant ``c0``, the forces with bounds and
-    their bounds, and the bounds of every general row less its offset ``A_IO z0``."""
+    their bounds, and the bounds of every general row less its offset ``A_IO z0`` (``g_lo,
+    g_hi``; ``a_lo, a_hi`` for the avoidance row of each binary)."""
 
     lo: np.ndarray
     hi: np.ndarray
@@ -228,6 +235,8 @@ class _Context:
     f_hi: np.ndarray
     g_lo: np.ndarray
     g_hi: np.ndarray
+    a_lo: np.ndarray
+    a_hi: np.ndarray
 
 
 @dataclass(frozen=True, eq=False)
@@ -247,10 +256,14 @@ class Condensed:
     r_inv : (n, n) ``R^-1``; eye : (n, n).
     bound_rows, bound_coef : rows bounding one force each, and their coefficient;
     bound_of : (n, r) for each force the indices into bound_rows of its rows (-1: none).
-    rows : (m,) general inequality rows; g : (m, n) their ``G``; a_io : (m, E) their part on
-    ``z_O``; row_y : (m,) binary of an avoidance row, else -1; avoid : (m,) row_y >= 0.
-    a_w : (n + m, n) ``[R^-1; G R^-1]``; lazy : (n + m,) its speed-polygon rows (on
-    velocities only), which DAQP gets only when violated; a_lazy : those rows of a_w.
+    rows : (m,) general inequality rows but avoidance; a_io : (m, E) their part on ``z_O``.
+    a_w : (n + m, n) ``[R^-1; G R^-1]`` (``G`` their part on u); lazy : (n + m,) its
+    speed-polygon rows (on velocities only), which DAQP gets only when violated; a_lazy :
+    those rows of a_w.
+    avoid_row : (Y,) the avoidance row (Eq. 8d) of each binary, flat ``y`` order; avoid_rep :
+    (Y,) its representative, a (step, face) pair: ``face_w (R, n)`` its row in ``w``,
+    ``face_io (R, E)`` its part on ``z_O``.  Avoidance rows cost no memory per obstacle:
+    one QP's rows are formed from the representatives of the faces it switches on.
     """
 
     eq: np.ndarray
@@ -266,13 +279,14 @@ class Condensed:
     bound_of: np.ndarray
     bound_coef: np.ndarray
     rows: np.ndarray
-    g: np.ndarray
     a_io: sp.csr_matrix
-    row_y: np.ndarray
-    avoid: np.ndarray
     a_w: np.ndarray
     lazy: np.ndarray
     a_lazy: np.ndarray
+    avoid_row: np.ndarray
+    avoid_rep: np.ndarray
+    face_w: np.ndarray
+    face_io: sp.csr_matrix
 
     @classmethod
     def build(cls, c: Compiled) -> "Condensed":
@@ -310,15 +324,33 @@ class Condensed:
         order = np.argsort(var, kind="stable")
         slot = np.arange(len(var)) - np.repeat(np.cumsum(per_var) - per_var, per_var)
         bound_of[var[order], slot] = order
-        a_r = a[rows]
+        avoid = c.row_y[rows] >= 0
+        a_r = a[rows[~avoid]]
         g = a_r[:, u].toarray() + a_r[:, other] @ s
         a_w = np.ascontiguousarray(np.vstack([r_inv, g @ r_inv]))
         lazy = np.r_[np.zeros(len(u), bool), cls._velocity_only(a_r, c)]
+        faces = cls._faces(a, rows[avoid], c, u, other, s, r_inv)
         return cls(eq=eq, pinv=pinv, s=s, term=term, w=c.term_w, x_pos=where[c.x_cols], u_shape=c.u_cols.shape,
                    r_inv=r_inv, eye=np.eye(len(u)), bound_rows=bound_rows, bound_of=bound_of,
-                   bound_coef=a.data[a.indptr[bound_rows]], rows=rows, g=g, a_io=a_r[:, other].tocsr(),
-                   row_y=c.row_y[rows], avoid=c.row_y[rows] >= 0,
-                   a_w=a_w, lazy=lazy, a_lazy=np.ascontiguousarray(a_w[lazy]))
+                   bound_coef=a.data[a.indptr[bound_rows]], rows=rows[~avoid], a_io=a_r[:, other].tocsr(),
+                   a_w=a_w, lazy=lazy, a_lazy=np.ascontiguousarray(a_w[lazy]), **faces)
+
+    @staticmethod
+    def _faces(a: sp.csr_matrix, avoid_rows: np.ndarray, c: Compiled, u, other, s, r_inv) -> dict:
+        """The avoidance rows (Eq. 8d), one per binary, kept implicitly: the rows of one step
+        and face differ only in their binary's column and their bound, so each (step, face)
+        has one representative row in ``w``.  ValueError if the program is not so."""
+        y_of = c.row_y[avoid_rows]
+        avoid_row = np.zeros(c.y_cols.size, int)
+        avoid_row[y_of] = avoid_rows
+        n = c.y_cols.shape[1] // 4
+        rep = np.arange(c.y_cols.size) // (4 * n) * 4 + np.arange(c.y_cols.size) % 4 if n else np.zeros(0, int)
+        first = np.unique(rep, return_index=True)[1]
+        a_o, a_u = a[avoid_row][:, other].tocsr(), a[avoid_row][:, u].tocsr()
+        if len(avoid_row) and ((a_o - a_o[first][rep]).nnz or (a_u - a_u[first][rep]).nnz):
+            raise ValueError("avoidance rows of one step and face differ beyond their binary")
+        face_w = (a_u[first].toarray() + a_o[first] @ s) @ r_inv if len(first) else np.zeros((0, len(u)))
+        return dict(avoid_row=avoid_row, avoid_rep=rep, face_w=np.ascontiguousarray(face_w), face_io=a_o[first])
 
     @staticmethod
     def _velocity_only(a_r: sp.csr_matrix, c: Compiled) -> np.ndarray:
@@ -342,20 +374,38 @@ class Condensed:
         ub = np.where(has, np.where(coef > 0, hi_b, lo_b), np.inf).min(axis=1, initial=np.inf)
         forces = np.flatnonzero(np.isfinite(lb) | np.isfinite(ub))
         off = self.a_io @ z0
-        bounds = (np.clip(v, -BIG, BIG) for v in (lb[forces], ub[forces], lo[self.rows] - off, hi[self.rows] - off))
+        off_face = (self.face_io @ z0)[self.avoid_rep]
+        bounds = (np.clip(v, -BIG, BIG) for v in (lb[forces], ub[forces], lo[self.rows] - off, hi[self.rows] - off,
+                                                  lo[self.avoid_row] - off_face, hi[self.avoid_row] - off_face))
         return _Context(lo.copy(), hi.copy(), z0, self.r_inv.T @ lin, float(self.w @ (t0 * t0)), forces, *bounds)
 
-    def rows_for(self, y, relax, ctx) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rows of :attr:`a_w` kept for this QP and their bounds (DAQP's infinity).
+    def rows_for(self, y, relax, ctx, needed=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Rows kept for this QP, as sorted ids (below ``len(a_w)``: rows of :attr:`a_w`;
+        above: ``len(a_w) +`` a binary's avoidance row), and their bounds (DAQP's infinity).
 
-        A kept avoidance row has ``y = 0`` (``y = 1`` rows are implied by the area, tight
-        big-M, and dropped), so the binaries never shift a kept row's bounds."""
-        keep = ~self.avoid
-        if not relax:
-            keep[self.avoid] = y.reshape(-1)[self.row_y[self.avoid]] == 0
-        general = np.flatnonzero(keep)
-        rows = np.concatenate([ctx.forces, len(self.r_inv) + general])  # np.r_ costs 50 us a call here
-        return rows, np.concatenate([ctx.f_lo, ctx.g_lo[general]]), np.concatenate([ctx.f_hi, ctx.g_hi[general]])
+        An avoidance row is kept where ``y = 0`` (``y = 1`` rows are implied by the area,
+        tight big-M, and dropped), so the binaries never shift a kept row's bounds, and,
+        given ``needed (T-1, n)`` bool, only for the (step, obstacle) pairs it marks: the
+        caller knows the others' rows hold for every plan that matters."""
+        base = np.concatenate([ctx.forces, len(self.r_inv) + np.arange(len(self.rows))])  # np.r_: 50 us a call
+        on = np.zeros(0, int)
+        if not relax and len(self.avoid_row):
+            keep = y.reshape(-1) == 0
+            if needed is not None:
+                keep &= np.repeat(needed.reshape(-1), 4)
+            on = np.flatnonzero(keep)
+        ids = np.concatenate([base, len(self.a_w) + on])
+        return (ids, np.concatenate([ctx.f_lo, ctx.g_lo, ctx.a_lo[on]]),
+                np.concatenate([ctx.f_hi, ctx.g_hi, ctx.a_hi[on]]))
+
+    def matrix(self, ids: np.ndarray) -> np.ndarray:
+        """``(len(ids), n)`` the rows ``ids`` (from :meth:`rows_for`) in ``w``."""
+        split = int(np.searchsorted(ids, len(self.a_w)))
+        return np.concatenate([self.a_w[ids[:split]], self.face_w[self.avoid_rep[ids[split:] - len(self.a_w)]]])
+
+    def lazy_rows(self, ids: np.ndarray) -> np.ndarray:
+        """Positions in ``ids`` of the speed-polygon rows."""
+        return np.flatnonzero(self.lazy[ids[ids < len(self.a_w)]])
 
     def objective(self, z: np.ndarray) -> float:
         t = z[self.term]
@@ -406,13 +456,16 @@ class ClarabelQP:
         self.avoid = c.row_y >= 0
         self._highs = None
 
-    def solve(self, lo: np.ndarray, hi: np.ndarray, y: np.ndarray, relax: bool = False) -> QpSolution | None:
+    def solve(self, lo: np.ndarray, hi: np.ndarray, y: np.ndarray, relax: bool = False,
+              needed: np.ndarray | None = None) -> QpSolution | None:
         """As :meth:`FixedFaceQP.solve`."""
         yv = np.ones(self.a_y.shape[1]) if relax else y.reshape(-1).astype(float)
         shift = self.a_y @ yv
         lo, hi = lo - shift, hi - shift
         drop = np.zeros(len(lo), bool)
         drop[self.avoid] = relax | (yv[self.c.row_y[self.avoid]] == 1)
+        if needed is not None:
+            drop[self.avoid] |= ~np.repeat(needed.reshape(-1), 4)[self.c.row_y[self.avoid]]
         drop[self.c.sum_rows] = True
         eq = (lo == hi) & ~drop
         up = np.isfinite(hi) & ~eq & ~drop
