@@ -349,15 +349,18 @@ def cmd_tma_reproduce(args: argparse.Namespace) -> int:
 
 
 def cmd_world_generate(args: argparse.Namespace) -> int:
-    from .worldgen import MAX_OBSTACLES, MAX_TARGETS, generate, mission_toml, world_toml
+    from .worldgen import KINDS, generate, mission_toml, world_toml
 
     _seed(args.seed)
-    if not 0 <= args.obstacles <= MAX_OBSTACLES:
-        raise UsageError(f"--obstacles must be between 0 and {MAX_OBSTACLES}, got {args.obstacles}")
-    if args.targets is not None and not 1 <= args.targets <= MAX_TARGETS:
-        raise UsageError(f"--targets must be between 1 and {MAX_TARGETS}, got {args.targets}")
-    gen = generate(np.random.default_rng(args.seed), args.obstacles, args.targets)
-    stem = f"gen-s{args.seed}-o{args.obstacles}-t{len(gen.target_goals)}"
+    most_obstacles, most_targets = KINDS[args.kind]
+    if not 0 <= args.obstacles <= most_obstacles:
+        raise UsageError(f"--obstacles must be between 0 and {most_obstacles} for --kind {args.kind}, "
+                         f"got {args.obstacles}")
+    if args.targets is not None and not 1 <= args.targets <= most_targets:
+        raise UsageError(f"--targets must be between 1 and {most_targets} for --kind {args.kind}, got {args.targets}")
+    gen = generate(np.random.default_rng(args.seed), args.obstacles, args.targets, kind=args.kind)
+    prefix = "gen" if args.kind == "open" else args.kind
+    stem = f"{prefix}-s{args.seed}-o{args.obstacles}-t{len(gen.target_goals)}"
     out = Path(args.out) if args.out else Path("generated") / f"{stem}.toml"
     if args.out and (out.is_dir() or args.out.endswith(("/", os.sep))):
         out = out / f"{stem}.toml"
@@ -367,7 +370,8 @@ def cmd_world_generate(args: argparse.Namespace) -> int:
         if path.exists() and not args.force:
             raise UsageError(f"--out: {path} exists; pass --force to overwrite it")
     _output_folder(out.parent)
-    command = f"uavsim world generate --seed {args.seed} --obstacles {args.obstacles} --targets {len(gen.target_goals)}"
+    command = (f"uavsim world generate --kind {args.kind} --seed {args.seed} --obstacles {args.obstacles} "
+               f"--targets {len(gen.target_goals)}")
     gen = replace(gen, name=out.stem, seed=args.seed)
     write_atomic(world, world_toml(gen, command))
     write_atomic(out, mission_toml(gen, world.name, command))
@@ -569,10 +573,16 @@ def build_parser() -> argparse.ArgumentParser:
                     "every goal reachable within the horizon). Writes MISSION.toml and MISSION.world.toml "
                     "beside it; the mission names its world by that relative path.")
     p.add_argument("--seed", type=int, required=True, help="the world's seed: the same seed gives the same files")
-    p.add_argument("--obstacles", type=int, required=True, metavar="K", help="number of cuboids, 0 to 15")
-    p.add_argument("--targets", type=int, metavar="N", help="number of targets, 1 to 8 (default: drawn from the seed)")
+    p.add_argument("--kind", choices=("open", "city"), default="open",
+                   help="open: 0-15 walls, masts and boxes round 1-3 goals (default); city: a street grid of 0-150 "
+                        "buildings with plazas and courtyards as goals, dead ends, 1-16 targets")
+    p.add_argument("--obstacles", type=int, required=True, metavar="K",
+                   help="number of cuboids: 0 to 15 (open), 0 to 150 (city)")
+    p.add_argument("--targets", type=int, metavar="N",
+                   help="number of targets: 1 to 8 (open), 1 to 16 (city); default: drawn from the seed")
     p.add_argument("--out", metavar="FILE", help="the mission file, or a folder for it (default "
-                   "generated/gen-s<seed>-o<K>-t<N>.toml); the world goes beside it as <name>.world.toml")
+                   "generated/<kind>-s<seed>-o<K>-t<N>.toml, kind 'gen' for open); the world goes beside it "
+                   "as <name>.world.toml")
     p.add_argument("--force", action="store_true", help="overwrite existing files")
     p.set_defaults(func=cmd_world_generate)
     return parser

@@ -268,28 +268,41 @@ def _target(rng, goal, behind, field: GoalField, ground, area_lo, area_hi, goals
 
 
 # --------------------------------------------------------------------------- the generator
+KINDS = {"open": (MAX_OBSTACLES, MAX_TARGETS), "city": (150, 16)}  # kind: most obstacles, most targets
+
+
 def generate(rng: np.random.Generator | int, obstacles: int, targets: int | None = None,
-             settings: Settings = Settings(), name: str | None = None) -> Generated:
-    """Draw a world + mission pair (see the module docstring for what it holds).
+             settings: Settings = Settings(), name: str | None = None, kind: str = "open") -> Generated:
+    """Draw a world + mission pair.
 
     Parameters
     ----------
     rng : a Generator, or a seed for ``numpy.random.default_rng``.
-    obstacles : 0..15 cuboids; targets : 1..8 (None: drawn from ``rng``).
-    settings : the mission numbers (default: the paper's); name : default ``gen``.
+    obstacles : cuboids, 0..15 of the kind "open" (this module's docstring), 0..150
+        buildings of the kind "city" (:mod:`uavsim.citygen`).
+    targets : 1..8 ("open"), 1..16 ("city"); None: drawn from ``rng``.
+    settings : the mission numbers (default: the paper's); name : default the kind's.
     """
+    if kind not in KINDS:
+        raise ValueError(f"unknown world kind {kind!r}; choose from {', '.join(KINDS)}")
+    most_obstacles, most_targets = KINDS[kind]
     seed = rng if isinstance(rng, (int, np.integer)) else None
     rng = np.random.default_rng(rng)
-    if not 0 <= obstacles <= MAX_OBSTACLES:
-        raise ValueError(f"obstacles must be between 0 and {MAX_OBSTACLES}, got {obstacles}")
+    if not 0 <= obstacles <= most_obstacles:
+        raise ValueError(f"obstacles must be between 0 and {most_obstacles}, got {obstacles}")
     if targets is None:
-        targets = int(rng.integers(1, MAX_TARGETS + 1))
-    if not 1 <= targets <= MAX_TARGETS:
-        raise ValueError(f"targets must be between 1 and {MAX_TARGETS}, got {targets}")
+        targets = int(rng.integers(1, most_targets + 1))
+    if not 1 <= targets <= most_targets:
+        raise ValueError(f"targets must be between 1 and {most_targets}, got {targets}")
+    if kind == "city":
+        from .citygen import attempt  # citygen builds on this module's pieces
+    else:
+        attempt = _attempt
     for _ in range(1000):  # a draw that cannot be completed starts again from a new area
-        out = _attempt(rng, obstacles, targets, settings)
+        out = attempt(rng, obstacles, targets, settings)
         if out is not None:
-            return Generated(name=name or "gen", seed=None if seed is None else int(seed), settings=settings, **out)
+            return Generated(name=name or ("gen" if kind == "open" else kind), seed=None if seed is None else int(seed),
+                             settings=settings, **out)
     raise RuntimeError("no world found in 1000 draws")  # never seen; a bug if it happens
 
 
