@@ -60,8 +60,8 @@ def test_world_generate_out_naming_an_existing_file(capsys, a_file):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--obstacles", "16"], "--obstacles must be between 0 and 15, got 16"),
-    (["--obstacles", "2", "--targets", "9"], "--targets must be between 1 and 8, got 9"),
+    (["--obstacles", "16"], "--obstacles must be between 0 and 15 for --kind open, got 16"),
+    (["--obstacles", "2", "--targets", "9"], "--targets must be between 1 and 8 for --kind open, got 9"),
     (["--obstacles", "2", "--seed", "-3"], "--seed must be >= 0, got -3"),
 ])
 def test_world_generate_bad_counts(capsys, tmp_path, args, message):

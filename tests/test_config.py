@@ -110,6 +110,7 @@ BAD_MISSIONS = [
     (sub("particles = 5000", 'kind = "ub-plkf"'), "filter.kind", "ub-plkf has no clutter model"),
     (sub("particles = 5000", 'kind = "ekf"'), "filter.kind", "must be one of particle, plkf"),
     (sub("plan_clusters = 1", "plan_clusters = 3"), "filter.plan_clusters", "must be <= 2"),
+    (sub("horizon = 50", 'horizon = 50\nterminal = "firm"'), "guidance.terminal", "must be one of soft, hard"),
     (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "plkf"')
      .replace("plan_clusters = 1", "plan_clusters = 2")
      .replace("clutter_rate = 0.5", "clutter_rate = 0.0"), "filter.plan_clusters", "needs particles to split"),

@@ -144,7 +144,7 @@ def test_a_planners_fingerprint_leaves_out_the_other_planners_settings():
 PAPER_SMALL_FINGERPRINT = "ef13a88e7f43c7c662d0e9dbe8aad1cf4a46333073f606a6340a8d988bc22991"
 
 
-def test_the_filters_plan_clusters_is_in_the_fingerprint_unless_it_is_the_old_behaviour():
+def test_new_settings_are_in_the_fingerprint_unless_they_keep_the_old_behaviour():
     """One plan from the mean (plan_clusters = 1, what every campaign before the setting
     did) leaves the fingerprint as it was before the setting existed, so those campaign
     folders still resume; two plans change it. The mission is taken with the re-plan
@@ -157,6 +157,9 @@ def test_the_filters_plan_clusters_is_in_the_fingerprint_unless_it_is_the_old_be
     assert fingerprint(m, "optimized") == PAPER_SMALL_FINGERPRINT
     assert fingerprint(small(**old, **{"filter.plan_clusters": 2}), "optimized") != PAPER_SMALL_FINGERPRINT
     assert fingerprint(small(), "optimized") != PAPER_SMALL_FINGERPRINT
+    # the soft terminal (P1 as published) likewise; a hard one is a new setting
+    assert fingerprint(small(**old, **{"guidance.terminal": "soft"}), "optimized") == PAPER_SMALL_FINGERPRINT
+    assert fingerprint(small(**old, **{"guidance.terminal": "hard"}), "optimized") != PAPER_SMALL_FINGERPRINT
 
 
 def test_baseline_does_not_depend_on_sensor_or_planner_settings(tmp_path, capsys):

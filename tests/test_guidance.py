@@ -471,3 +471,70 @@ def test_a_certified_plan_may_end_outside_its_goal_region_where_ending_inside_co
     inside.solve(solver=cp.CLARABEL)
     assert inside.status == cp.OPTIMAL and inside.value == pytest.approx(35_204, rel=1e-3)
     assert inside.value > plan.objective * (1 + cfg.gap)
+
+
+def test_a_hard_terminal_ends_in_the_goal_region(tmp_path):
+    """``guidance.terminal = "hard"`` on the plan above (generated world 15, T3): the
+    certified plan ends inside its region, collision-free.  Its Eq. (7) lies between the
+    soft optimum (15 279 m^2: a relaxation of the hard problem) and the route-fixed plan
+    that ends inside (35 204 m^2: a feasible point of it)."""
+    m = _generated(15, tmp_path)
+    t = m.targets[2]
+    goal = m.world.goals[t.goal]
+    g = Guidance(m.world, m.dynamics, dataclasses.replace(m.guidance, terminal="hard"))
+    plan = g.plan(t.mean0, t.cov0, goal.centroid)
+    assert plan.status == "optimal" and plan.gap <= m.guidance.gap and not plan.unreachable
+    end = plan.positions[-1, :2]
+    assert np.all(end >= goal.lo - 1e-6) and np.all(end <= goal.hi + 1e-6)
+    assert 15_279 * (1 - 1e-3) <= plan.objective <= 35_204 * (1 + 1e-3)
+    p = m.world.on_ground(plan.positions[1:])  # step 2 on: step 1 is fixed by the start
+    assert not m.world.in_obstacle(p).any() and not m.world.segment_blocked(p[:-1], p[1:]).any()
+
+
+@pytest.mark.skipif(not HAS_SCIP, reason="pyscipopt not installed: pip install '.[scip]' (the test extra has it)")
+def test_a_hard_terminal_matches_scip_on_short_horizons():
+    """The paper world, T = 20, starts within reach of the goal region: the hard-terminal
+    optimum equals SCIP's on the cvxpy model with ``p_T`` constrained into the region."""
+    cfg = dataclasses.replace(short(20), terminal="hard")
+    highs = Guidance(MISSION.world, MISSION.dynamics, cfg)
+    scip = Guidance(MISSION.world, MISSION.dynamics, dataclasses.replace(cfg, time_limit=300.0), solver="scip")
+    region = MISSION.world.goals[0]
+    cov = MISSION.targets[0].cov0
+    starts = [s for s in random_starts(40, seed=5) if np.linalg.norm(s[:2] - GOAL[:2]) < 280][:4]
+    assert len(starts) == 4
+    for mean in starts:
+        a, b = highs.plan(mean, cov, GOAL), scip.plan(mean, cov, GOAL)
+        assert a.status == "optimal" and b.status == "optimal" and not a.unreachable
+        assert np.all(a.positions[-1, :2] >= region.lo - 1e-6) and np.all(a.positions[-1, :2] <= region.hi + 1e-6)
+        assert abs(a.objective - b.objective) <= cfg.gap * max(a.objective, 1.0) + 1e-6 * max(b.objective, 1.0)
+
+
+def test_an_unreachable_goal_region_says_so_and_plans_soft():
+    """T = 10 steps at 16 m/s cover at most 160 m: from 600 m away no plan ends in the
+    region.  The relaxation proves it, and the plan returned is P1's soft one (the same
+    objective as a soft guidance's), marked unreachable with the reason."""
+    cfg = short(10)
+    hard = Guidance(MISSION.world, MISSION.dynamics, dataclasses.replace(cfg, terminal="hard"))
+    soft = Guidance(MISSION.world, MISSION.dynamics, cfg)
+    mean = np.array([500.0, 800.0, 0.0, 0.0, 0.0, 0.0])
+    plan, reference = hard.plan(mean, MISSION.targets[0].cov0, GOAL), soft.plan(mean, MISSION.targets[0].cov0, GOAL)
+    assert plan.unreachable and plan.ok and plan.status == reference.status
+    assert "goal region unreachable within the horizon" in plan.message and "cannot be reached" in plan.message
+    assert plan.objective == pytest.approx(reference.objective, rel=1e-12)
+    with pytest.raises(ValueError, match="needs a goal region"):
+        hard.plan(mean, MISSION.targets[0].cov0, np.array([1.0, 2.0, 0.0]))
+
+
+def test_a_face_closes_the_reachable_boxes_under_the_speed_limit():
+    """:func:`beyond`: three steps 16 m apart at most; step 0 beyond +x at 100 m pushes
+    step 1 to x >= 84 and step 2 to x >= 68; then step 2 beyond -x at -60 (x <= 60) is out
+    of reach (68 > 60), and at -70 (x <= 70) is not."""
+    from uavsim.guidance.faces import beyond
+
+    boxes = (np.full((3, 2), -1000.0), np.full((3, 2), 1000.0))
+    lo, hi = beyond(boxes, 0, 0, 100.0, 16.0)
+    np.testing.assert_array_equal(lo[:, 0], [100.0, 84.0, 68.0])
+    np.testing.assert_array_equal(hi, boxes[1])
+    assert beyond((lo, hi), 2, 1, -60.0, 16.0) is None
+    lo2, hi2 = beyond((lo, hi), 2, 1, -70.0, 16.0)
+    np.testing.assert_array_equal(hi2[:, 0], [102.0, 86.0, 70.0])

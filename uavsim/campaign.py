@@ -150,6 +150,8 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
     data = asdict(mission)
     if data["filter"]["plan_clusters"] == 1:  # as before the setting existed: those folders still resume
         del data["filter"]["plan_clusters"]
+    if data["guidance"]["terminal"] == "soft":  # likewise
+        del data["guidance"]["terminal"]
 
     def plain(o):
         return o.tolist() if isinstance(o, np.ndarray) else str(o)

@@ -166,12 +166,13 @@ def attempt(rng, n_buildings: int, n_targets: int, s: Settings) -> dict | None:
     area_lo, area_hi, cells = _blocks(rng, need)
     order = rng.permutation(len(cells))
     goal_cells, rest = order[:n_goals], order[n_goals:]
-    boxes, goals = [], []
+    boxes, goals, kinds = [], [], []
     for k in goal_cells:
         lo, hi = cells[k]
         court = _courtyard(rng, lo, hi, keep_clear) if rng.random() < 0.5 and n_buildings - walls >= 4 else None
         if court is not None and len(court[0]) <= n_buildings - walls - len(boxes):
             boxes += court[0]
+            kinds += ["court"] * len(court[0])
             lo, hi = court[1] + keep_clear, court[2] - keep_clear
         size = np.minimum(np.round(rng.uniform(40.0, 110.0, 2) / 5) * 5, hi - lo - 10.0)
         centre = np.round(rng.uniform(lo + size / 2, hi - size / 2))
@@ -185,15 +186,17 @@ def attempt(rng, n_buildings: int, n_targets: int, s: Settings) -> dict | None:
         if parts is None:
             return None
         boxes += parts
+        kinds += ["b"] * len(parts)
     for _ in range(50 * walls):
         if len(boxes) == n_buildings:
             break
         wall = _dead_end(rng, cells)
         if wall is not None and _clear_of(wall, goals, keep_clear):
             boxes.append(wall)
+            kinds.append("wall")
     if len(boxes) != n_buildings:
         return None
-    return _finish(rng, boxes, goals, area_lo, area_hi, n_targets, s)
+    return _finish(rng, boxes, kinds, goals, area_lo, area_hi, n_targets, s)
 
 
 def _counts(rng, cells: np.ndarray, total: int) -> np.ndarray | None:
@@ -210,8 +213,10 @@ def _counts(rng, cells: np.ndarray, total: int) -> np.ndarray | None:
     return counts
 
 
-def _finish(rng, boxes, goals, area_lo, area_hi, n_targets: int, s: Settings) -> dict | None:
-    """Heights, goals checked clear, targets, UAV and fixed sensors (as the open kind)."""
+def _finish(rng, boxes, kinds, goals, area_lo, area_hi, n_targets: int, s: Settings) -> dict | None:
+    """Heights, goals checked clear, targets, UAV and fixed sensors (as the open kind).
+    Buildings are named by kind: ``b`` in blocks, ``court`` round a courtyard, ``wall``
+    across a street."""
     heights = [_height(rng) for _ in boxes]
     obs_lo = np.array([[*b[0], h[0]] for b, h in zip(boxes, heights)]).reshape(-1, 3)
     obs_hi = np.array([[*b[1], h[1]] for b, h in zip(boxes, heights)]).reshape(-1, 3)
@@ -244,7 +249,7 @@ def _finish(rng, boxes, goals, area_lo, area_hi, n_targets: int, s: Settings) ->
     sensors = _fixed_sensors(rng, obs_lo, obs_hi, area_lo, area_hi)
     if uav is None or sensors is None:
         return None
-    names = tuple(f"b{i + 1}" for i in range(len(obs_lo)))
+    names = tuple(f"{kind}{i + 1}" for i, kind in enumerate(kinds))
     return dict(
         area_lo=area_lo, area_hi=area_hi, obstacle_names=names, obstacle_lo=obs_lo, obstacle_hi=obs_hi,
         goal_names=tuple(f"G{i + 1}" for i in range(len(goal_c))), goal_centres=goal_c, goal_sizes=goal_s,

@@ -114,6 +114,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
     cfg = mission.guidance
     if args.time_limit is not None:
         cfg = replace(cfg, time_limit=args.time_limit)
+    if args.terminal is not None:
+        cfg = replace(cfg, terminal=args.terminal)
     guidance = Guidance(mission.world, mission.dynamics, cfg, solver=args.solver)
     rows = []
     for target in mission.targets:
@@ -121,7 +123,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         rows.append({
             "id": target.name, "status": plan.status, "objective": plan.objective, "gap": plan.gap,
             "lower_bound": plan.lower_bound, "iterations": plan.iterations, "solve_seconds": plan.solve_seconds,
-            "message": plan.message,
+            "unreachable": plan.unreachable, "message": plan.message,
             "positions": plan.positions if plan.ok else None, "controls": plan.controls if plan.ok else None,
         })
     if args.json:
@@ -132,7 +134,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
         for r in rows:
             print(f"{r['id']:<8}{r['status']:<12}{r['objective']:>16.4f}{r['gap']:>10.1e}{r['iterations']:>6}"
                   f"{r['solve_seconds']:>9.3f}  {r['message']}")
-    return 0 if all(r["status"] == "optimal" for r in rows) else 1
+    return 0 if all(r["status"] == "optimal" and not r["unreachable"] for r in rows) else 1
 
 
 def _flag_overrides(args: argparse.Namespace) -> dict:
@@ -514,6 +516,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--solver", choices=("highs", "scip"), default="highs",
                    help="highs: exact outer approximation (default); scip: SCIP through cvxpy, for cross-checks")
     p.add_argument("--time-limit", type=float, default=None, help="seconds per target (default: the mission's)")
+    p.add_argument("--terminal", choices=("soft", "hard"), help="soft: P1 as published; hard: every plan must end "
+                   "in its goal region, or says the region is unreachable (default: the mission's guidance.terminal)")
     p.set_defaults(func=cmd_plan)
 
     p = sub.add_parser("run", help="run a Monte-Carlo campaign of the closed loop; writes DIR/summary.json")

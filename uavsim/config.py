@@ -439,6 +439,7 @@ def _guidance(t: _Table) -> GuidanceConfig:
         time_limit=t.number("time_limit_s", default=10.0, lo=0, lo_open=True),
         replan_budget=t.number("replan_budget_s", default=1.0, lo=0, lo_open=True),
         horizon_mode=t.string("horizon_mode", default="receding", choices=("receding", "shrinking")),
+        terminal=t.string("terminal", default="soft", choices=("soft", "hard")),
     )
     t.finish()
     return g

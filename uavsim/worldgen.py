@@ -63,6 +63,7 @@ class Settings:
     n_r: int = 4
     horizon: int = 50
     horizon_mode: str = "shrinking"
+    terminal: str = "soft"
     rho: float = 0.01
     force_max_n: float = 6000.0
     speed_max_mps: float = 16.0
@@ -495,7 +496,8 @@ def _mission_tables(g: Generated) -> list[str]:
     elif g.region is not None:
         verts = ", ".join(_vec(v) for v in g.region[1])
         lines += ["", "[uav.operating_region]", f"vertices_m = [{verts}]"]
-    lines += ["", "[guidance]", f"horizon = {s.horizon}", f'horizon_mode = "{s.horizon_mode}"', f"rho = {_num(s.rho)}",
+    lines += ["", "[guidance]", f"horizon = {s.horizon}", f'horizon_mode = "{s.horizon_mode}"',
+              f'terminal = "{s.terminal}"', f"rho = {_num(s.rho)}",
               f"force_max_n = {_num(s.force_max_n)}", f"speed_max_mps = {_num(s.speed_max_mps)}",
               f"speed_polygon_sides = {s.speed_polygon_sides}", f"clearance_m = {_num(s.clearance_m)}",
               f"gap = {_num(s.gap)}", f"time_limit_s = {_num(s.time_limit_s)}",

@@ -57,6 +57,9 @@ class Plan:
         safety margin (its avoidance constraint cannot be enforced; see model docstring).
     moved_start : no plan started from the belief's mean; this one starts from a nearby
         start within the limits (:meth:`Guidance.replan`; the message says which).
+    unreachable : a hard terminal was asked for (``GuidanceConfig.terminal``) and no plan
+        ending in the goal region was found (proved impossible, or none within the
+        budget; the message says which); this plan is P1's with the soft terminal term.
     """
 
     status: str
@@ -73,6 +76,7 @@ class Plan:
     first_step_in_margin: bool = False
     message: str = ""
     moved_start: bool = False
+    unreachable: bool = False
 
     @property
     def eventful(self) -> bool:
@@ -151,6 +155,11 @@ class Guidance:
         with it the solve spends ``replan_budget_s``, without it ``time_limit_s``.
         ``step``: the mission step the plan starts at, which sets its horizon
         (:meth:`horizon_at`).
+
+        With ``terminal = "hard"`` the plan must end inside the goal region whose centroid
+        is ``goal`` (ValueError if the world has none); where no such plan is found, the
+        same budget again solves P1 as published and the plan says so
+        (:attr:`Plan.unreachable`).
         """
         t0 = time.perf_counter()
         horizon = self.horizon_at(step)
@@ -222,6 +231,26 @@ class Guidance:
                        message=f"no plan ({plan.status}: {plan.message}); coasting")
 
     def _plan(self, mean, cov, goal, warm, horizon, t0) -> Plan:
+        if self.cfg.terminal == "soft":
+            return self._solve(mean, cov, goal, warm, horizon, t0)
+        plan = self._solve(mean, cov, goal, warm, horizon, t0, self._region(goal))
+        if plan.ok:
+            return plan
+        soft = self._solve(mean, cov, goal, warm, horizon, time.perf_counter())
+        if not soft.ok:
+            return soft
+        why = "goal region unreachable within the horizon" if plan.status == "infeasible" else "no plan found"
+        return replace(soft, unreachable=True, solve_seconds=time.perf_counter() - t0,
+                       message="; ".join(filter(None, [f"{why} ({plan.message}): soft terminal", soft.message])))
+
+    def _region(self, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(lo (2,), hi (2,))`` of the world's goal region with centroid ``goal``."""
+        for g in self.world.goals:
+            if np.allclose(g.centroid[:2], goal[:2], rtol=0, atol=1e-9):
+                return g.lo, g.hi
+        raise ValueError(f"terminal = 'hard' needs a goal region; none has its centroid at {goal[:2].tolist()}")
+
+    def _solve(self, mean, cov, goal, warm, horizon, t0, box=None) -> Plan:
         _, oa = self._model(horizon)
         x0 = np.array([mean[0], mean[1], mean[3], mean[4]])
         z_means, _ = self.dynamics.predict_moments(mean, cov, np.zeros((horizon, 3)))
@@ -229,11 +258,11 @@ class Guidance:
             why = f"target is not on the ground (|z| > {GROUND_BAND_M} m within the horizon)"
             return self._failed("error", t0, why)
         if self.solver == "scip":
-            status, obj, lb, u, faces, terms, it, msg = self._solve_scip(oa, x0, goal[:2])
+            status, obj, lb, u, faces, terms, it, msg = self._solve_scip(oa, x0, goal[:2], box)
         else:
             shifted = None if warm is None or warm.faces is None else _shift_warm(warm, horizon)
             seconds = self.cfg.time_limit if warm is None else self.cfg.replan_budget
-            sol = oa.solve(x0, goal[:2], self.budget(seconds, master=warm is None), shifted)
+            sol = oa.solve(x0, goal[:2], self.budget(seconds, master=warm is None), shifted, box)
             status, obj, lb, it, msg = sol.status, sol.objective, sol.lower_bound, sol.iterations, sol.message
             u, faces, terms = (None, None, None) if sol.plan is None else (sol.plan.u, sol.plan.y, sol.plan.s)
         if u is None:
@@ -266,7 +295,7 @@ class Guidance:
         g = self.geom
         return bool(np.any(np.all((mean1[:2] >= g.lo) & (mean1[:2] <= g.hi), axis=1)))
 
-    def _solve_scip(self, p, x0, goal):
+    def _solve_scip(self, p, x0, goal, box=None):
         """The same cvxpy model, solved by SCIP (optional extra ``pyscipopt``).
 
         SCIP runs without a gap limit: cvxpy reports SCIP's gap-limit and time-limit stops
@@ -274,6 +303,8 @@ class Guidance:
         anything else is a time limit with an unknown lower bound.
         """
         p.x0.value, p.goal.value = x0, goal
+        if p.box is not None:
+            p.box.value = np.r_[box[0], box[1]]
         try:
             p.problem.solve(solver=cp.SCIP, scip_params={"limits/time": self.cfg.time_limit},
                             canon_backend=cp.SCIPY_CANON_BACKEND)

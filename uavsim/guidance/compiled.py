@@ -64,6 +64,7 @@ class Compiled:
     u_cols: np.ndarray  # (T, 2)
     sum_rows: np.ndarray  # rows of Eq. (8e)
     row_y: np.ndarray  # (rows,) for a big-M row of Eq. (8d), its binary (flat index into y_cols); else -1
+    terminal_rows: np.ndarray | None = None  # (2,) the area rows of p_T (x, y): a hard terminal tightens them
 
     @property
     def n_cols(self) -> int:
@@ -168,8 +169,10 @@ def assemble_p1(geom: Geometry, dt: float, friction: float, mass: float, horizon
     v = x_cols[1:, 2:]  # (T, 2) velocities after each control
     dirs = geom.speed_dirs
     rows.box(np.repeat(v, len(dirs), axis=0), np.tile(dirs, (t, 1)), -INF, geom.speed_bound)
+    terminal_rows = []
     for i in range(2):
         rows.box(x_cols[2:, i:i + 1], [1.0], geom.area_lo[i], geom.area_hi[i])
+        terminal_rows.append(rows.count - 1)
     row_y = np.full(rows.count, -1)
     if n:
         # -(a_i . p) - M_i y <= -b_i for face i of obstacle j at step r (tau = r + 2)
@@ -195,7 +198,7 @@ def assemble_p1(geom: Geometry, dt: float, friction: float, mass: float, horizon
         param_rows=np.flatnonzero(np.any(lo_map != 0, axis=1)).astype(np.int32),
         col_lo=col_lo, col_hi=col_hi, y_cols=y_cols.astype(np.int32), term_cols=term_cols,
         term_w=np.r_[1.0, 1.0, np.full(2 * (t - 1), rho)], n_terms_e=2, x_cols=x_cols, u_cols=u_cols,
-        sum_rows=sum_rows.astype(np.int32), row_y=row_y,
+        sum_rows=sum_rows.astype(np.int32), row_y=row_y, terminal_rows=np.array(terminal_rows),
     )
 
 

@@ -66,11 +66,13 @@ class Reach:
     def horizon(self) -> int:
         return len(self.sigma) - 1
 
-    def face_bounds(self, x0, goal, ub=np.inf, relaxed=None) -> tuple[np.ndarray, np.ndarray]:
+    def face_bounds(self, x0, goal, ub=np.inf, relaxed=None, box=None) -> tuple[np.ndarray, np.ndarray]:
         """``(lo, hi)``, each ``(T-1, 4)``: bounds of ``a_i . p_tau`` for tau = 2..T.
 
         ``x0 = [p_x, p_y, v_x, v_y]`` the start; ``relaxed = (points (T-1, 2), f0)`` the
-        obstacle-free optimum, for the growth disk (used when ``ub`` is finite).
+        obstacle-free optimum, for the growth disk (used when ``ub`` is finite); ``box =
+        (lo (2,), hi (2,))`` a hard terminal region: ``p_T`` is in it, so ``p_tau`` is
+        within ``(T - tau) dt v_max`` of it.
         """
         tau = np.arange(2, self.horizon + 1)[:, None]
         ax = FACE_NORMALS
@@ -90,7 +92,38 @@ class Reach:
         for centre, radius in disks:
             lo = np.maximum(lo, centre @ ax.T - radius)
             hi = np.minimum(hi, centre @ ax.T + radius)
+        if box is not None:
+            ends = np.array(box) @ ax.T  # (2, 4): a_i . lo, a_i . hi
+            radius = (self.horizon - tau) * self.dt * self.v_max
+            lo = np.maximum(lo, ends.min(0) - radius)
+            hi = np.minimum(hi, ends.max(0) + radius)
         return lo, hi
+
+
+def step_boxes(face_lo: np.ndarray, face_hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(lo, hi)``, each ``(T-1, 2)``: the bounding box of the reachable set per step, from
+    :meth:`Reach.face_bounds` (faces +x, -x, +y, -y bound ``x``, ``-x``, ``y``, ``-y``)."""
+    lo = np.column_stack([np.maximum(face_lo[:, 0], -face_hi[:, 1]), np.maximum(face_lo[:, 2], -face_hi[:, 3])])
+    hi = np.column_stack([np.minimum(face_hi[:, 0], -face_lo[:, 1]), np.minimum(face_hi[:, 2], -face_lo[:, 3])])
+    return lo, hi
+
+
+def beyond(boxes: tuple[np.ndarray, np.ndarray], r: int, i: int, b: float, step: float):
+    """The boxes of :func:`step_boxes` once ``p_tau`` (row ``r``) is beyond face ``i`` at
+    offset ``b`` (``a_i . p >= b``), closed under the speed limit: row ``r'`` keeps within
+    ``|r - r'| step`` of row ``r`` per axis (``step = v_max dt``: no point moves farther in
+    one step).  None when some box empties: no plan within reach is beyond that face
+    there (a branch-and-bound child that needs no QP)."""
+    lo, hi = boxes[0].copy(), boxes[1].copy()
+    axis = i // 2
+    if i % 2 == 0:
+        lo[r, axis] = max(lo[r, axis], b)
+    else:
+        hi[r, axis] = min(hi[r, axis], -b)
+    d = np.abs(np.arange(len(lo)) - r) * step
+    lo[:, axis] = np.maximum(lo[:, axis], lo[r, axis] - d)
+    hi[:, axis] = np.minimum(hi[:, axis], hi[r, axis] + d)
+    return None if np.any(lo[:, axis] > hi[:, axis] + 1e-7) else (lo, hi)
 
 
 def redundant(face_lo: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -66,7 +66,9 @@ class GuidanceConfig:
     clearance : extra obstacle margin (m); gap : certified relative gap;
     time_limit : nominal budget (s) of a first plan; replan_budget : of a re-plan (see
     :mod:`uavsim.guidance`); horizon_mode : "receding" or "shrinking" (see
-    :meth:`uavsim.guidance.Guidance.horizon_at`).
+    :meth:`uavsim.guidance.Guidance.horizon_at`); terminal : "soft" (P1 as published: the
+    end is pulled towards the goal's centroid by Eq. (7) only) or "hard" (the plan must
+    also end inside the goal region; see :meth:`uavsim.guidance.Guidance.plan`).
     """
 
     horizon: int
@@ -79,6 +81,7 @@ class GuidanceConfig:
     time_limit: float
     horizon_mode: str = "receding"
     replan_budget: float = 1.0
+    terminal: str = "soft"
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,7 +144,8 @@ class P1:
     error, ``d (T-1, 2)`` control increments (kN), ``y (T-1, 4 n)`` face binaries
     (paper convention: ``y = 1`` switches a face off; column ``4 j + i`` is face i of
     kept obstacle j; row r is planned step ``tau = r + 2``).
-    Parameters: ``x0 (4,)`` start ``[p_x, p_y, v_x, v_y]``, ``goal (2,)``.
+    Parameters: ``x0 (4,)`` start ``[p_x, p_y, v_x, v_y]``, ``goal (2,)``, and with a hard
+    terminal ``box (4,)`` the goal region ``[x_min, y_min, x_max, y_max]`` (else None).
     """
 
     problem: cp.Problem
@@ -155,6 +159,7 @@ class P1:
     rho_model: float  # rho in the model's units: rho * KN^2
     geom: Geometry
     horizon: int
+    box: cp.Parameter | None = None
 
 
 def build_p1(world: World, dynamics: Dynamics, cfg: GuidanceConfig, fixed_faces: bool = False) -> P1:
@@ -202,6 +207,9 @@ def build_p1(world: World, dynamics: Dynamics, cfg: GuidanceConfig, fixed_faces:
         ]
         if not fixed_faces:
             cons.append(y @ per_obstacle <= 3)  # Eq. (8e)
+    box = cp.Parameter(4, name="box") if cfg.terminal == "hard" else None
+    if box is not None:
+        cons += [pos[t] >= box[:2], pos[t] <= box[2:]]
     rho_model = cfg.rho * KN**2
     problem = cp.Problem(cp.Minimize(cp.sum_squares(e) + rho_model * cp.sum_squares(d)), cons)
-    return P1(problem, x, u, e, d, y, x0, goal, rho_model, geom, t)
+    return P1(problem, x, u, e, d, y, x0, goal, rho_model, geom, t, box)

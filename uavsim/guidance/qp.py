@@ -170,10 +170,9 @@ class FixedFaceQP:
             if not np.array_equal(lo[k.eq], hi[k.eq]):
                 return False, None  # an equality row given as a range: not the program condensed
             ctx = self._context = k.context(lo, hi)
-        rows, rlo, rhi = k.rows_for(y, relax, ctx, needed)
+        rows, rlo, rhi, a_all = k.rows_for(y, relax, ctx, needed)
         if np.any(rlo > rhi):
             return False, None
-        a_all = k.matrix(rows)
         lazy = k.lazy_rows(rows)  # rows_for keeps every general row but avoidance: all of them
         use = np.ones(len(rows), bool)
         use[lazy] = False
@@ -379,9 +378,10 @@ class Condensed:
                                                   lo[self.avoid_row] - off_face, hi[self.avoid_row] - off_face))
         return _Context(lo.copy(), hi.copy(), z0, self.r_inv.T @ lin, float(self.w @ (t0 * t0)), forces, *bounds)
 
-    def rows_for(self, y, relax, ctx, needed=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Rows kept for this QP, as sorted ids (below ``len(a_w)``: rows of :attr:`a_w`;
-        above: ``len(a_w) +`` a binary's avoidance row), and their bounds (DAQP's infinity).
+    def rows_for(self, y, relax, ctx, needed=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Rows kept for this QP: sorted ids (below ``len(a_w)``: rows of :attr:`a_w`; above:
+        ``len(a_w) +`` a binary's avoidance row), their bounds (DAQP's infinity) and their
+        matrix in ``w``.
 
         An avoidance row is kept where ``y = 0`` (``y = 1`` rows are implied by the area,
         tight big-M, and dropped), so the binaries never shift a kept row's bounds, and,
@@ -395,13 +395,9 @@ class Condensed:
                 keep &= np.repeat(needed.reshape(-1), 4)
             on = np.flatnonzero(keep)
         ids = np.concatenate([base, len(self.a_w) + on])
-        return (ids, np.concatenate([ctx.f_lo, ctx.g_lo, ctx.a_lo[on]]),
-                np.concatenate([ctx.f_hi, ctx.g_hi, ctx.a_hi[on]]))
-
-    def matrix(self, ids: np.ndarray) -> np.ndarray:
-        """``(len(ids), n)`` the rows ``ids`` (from :meth:`rows_for`) in ``w``."""
-        split = int(np.searchsorted(ids, len(self.a_w)))
-        return np.concatenate([self.a_w[ids[:split]], self.face_w[self.avoid_rep[ids[split:] - len(self.a_w)]]])
+        a = np.concatenate([self.a_w[base], self.face_w[self.avoid_rep[on]]])
+        rlo = np.concatenate([ctx.f_lo, ctx.g_lo, ctx.a_lo[on]])
+        return ids, rlo, np.concatenate([ctx.f_hi, ctx.g_hi, ctx.a_hi[on]]), a
 
     def lazy_rows(self, ids: np.ndarray) -> np.ndarray:
         """Positions in ``ids`` of the speed-polygon rows."""
