@@ -174,7 +174,7 @@ class Dense:
     def data(self, lo, hi, y, relax):
         k = self.k
         ctx = k.context(lo, hi)
-        rows, rlo, rhi = k.rows_for(y, relax, ctx)
+        rows, rlo, rhi, _ = k.rows_for(y, relax, ctx)
         t0 = ctx.z0[k.term]
         lin = k.s[k.term].T @ (2.0 * k.w * t0)
         lb, ub = np.full(self.n, -np.inf), np.full(self.n, np.inf)

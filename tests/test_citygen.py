@@ -28,7 +28,7 @@ def suite(tmp_path_factory):
 
 
 def test_every_city_validates_with_the_counts_asked_for(suite):
-    for (seed, k, n), (g, m) in zip(SUITE, suite):
+    for (seed, k, n), (_, m) in zip(SUITE, suite):
         assert m.world.n_obstacles == k and len(m.targets) == n, seed
         assert len(set(m.world.obstacle_names)) == k
         assert np.all(m.world.obstacle_hi[:, 2] <= m.world.area_hi[2] - 100), seed  # the UAV can fly over
@@ -59,11 +59,12 @@ def test_cities_are_street_grids_with_plazas_courtyards_and_dead_ends(suite):
         s = g.settings
         _, lo, hi = ground_footprints(m.world.obstacle_lo, m.world.obstacle_hi, s.margin)
         space = free_space(lo, hi, m.world.area_lo, m.world.area_hi, [(r.lo, r.hi) for r in m.world.goals])
+        o_lo, o_hi = m.world.obstacle_lo[:, :2], m.world.obstacle_hi[:, :2]
         for region in m.world.goals:
-            near = np.maximum(0, np.maximum(m.world.obstacle_lo[:, :2] - region.hi, region.lo - m.world.obstacle_hi[:, :2]))
+            near = np.maximum(0, np.maximum(o_lo - region.hi, region.lo - o_hi))
             assert np.all(np.linalg.norm(near, axis=1) >= s.margin + 10.0 - 1e-9)
             if len(m.world.obstacle_lo) >= 25:
-                sides = _sides_within(m.world.obstacle_lo[:, :2], m.world.obstacle_hi[:, :2], region, 60.0)
+                sides = _sides_within(o_lo, o_hi, region, 60.0)
                 courtyards += sides >= 3
                 plazas += sides <= 2
         for t in m.targets:
