@@ -9,7 +9,7 @@ Each step t -> t+1:
 3. **belief predict** (Eq. 9a) with each plan's first control.  With ``[filter]
    plan_clusters = 2`` each particle cloud is split in two (:func:`.belief.particle.halves`)
    and each half moves by the first control of a plan from its own mean and covariance
-   (warm-started from last step's half plan nearest to it).  A plan depends on the start's
+   (warm-started from the mean's plan of the same step).  A plan depends on the start's
    velocity as much as on its position, and on which side of an obstacle it lies, so one
    plan from the mean moves the whole cloud by a force that fits neither part of a
    spread or split cloud (on 50 generated worlds, ``benchmarks/worlds.py``, two plans
@@ -152,8 +152,9 @@ class Simulation:
                         seconds, events, self.belief.samples(), self.policy.uav,
                         None if self.truth.sensitivity is None else self.truth.sensitivity.copy())
 
-    def _replan(self, j: int, mean, cov, warm: Plan | None, events: list[str], who: str = "estimate") -> Plan:
-        plan = self.guidance.replan(mean, cov, self.m.goals[j], warm, self.t)
+    def _replan(self, j: int, mean, cov, warm: Plan | None, events: list[str], who: str = "estimate",
+                shift: int = 1) -> Plan:
+        plan = self.guidance.replan(mean, cov, self.m.goals[j], warm, self.t, shift)
         if plan.eventful:
             events.append(f"{self.m.targets[j].name} ({who}): {plan.message}")
         return plan
@@ -168,11 +169,10 @@ class Simulation:
             if mass[j].min() < MIN_HALF:
                 self.half_plans[j] = []
                 continue
-            warm = [p for p in (*self.half_plans[j], previous[j]) if p is not None]
             plans = []
             for h in range(2):
-                near = min(warm, key=lambda p: np.linalg.norm(p.means[0, :2] - means[j, h, :2]), default=None)
-                plans.append(self._replan(j, means[j, h], covs[j, h], near, events, f"estimate, half {h + 1}"))
+                plans.append(self._replan(j, means[j, h], covs[j, h], self.plans[j], events, f"estimate, half {h + 1}",
+                                          shift=0))
                 both[j, h] = plans[-1].controls[0]
             self.half_plans[j] = plans
         return both[:, 0], (mask, both[:, 1])

@@ -91,12 +91,12 @@ class Plan:
     def positions(self) -> np.ndarray:
         return self.means[:, :3]
 
-    def shifted(self, dynamics: Dynamics, mean: np.ndarray, cov: np.ndarray, why: str) -> "Plan":
-        """The fallback after a failed re-plan: this plan's controls one step on (the
+    def shifted(self, dynamics: Dynamics, mean: np.ndarray, cov: np.ndarray, why: str, by: int = 1) -> "Plan":
+        """The fallback after a failed re-plan: this plan's controls ``by`` steps on (the
         last repeated), propagated from the new start ``N(mean, cov)`` with Eq. (6)."""
-        controls = np.vstack([self.controls[1:], self.controls[-1:]])
+        controls = np.vstack([self.controls[by:], np.repeat(self.controls[-1:], by, axis=0)])
         means, covs = dynamics.predict_moments(mean, cov, controls)
-        faces = None if self.faces is None else np.concatenate([self.faces[1:], self.faces[-1:]])
+        faces = None if self.faces is None else np.concatenate([self.faces[by:], np.repeat(self.faces[-1:], by, 0)])
         return replace(self, status="fallback", controls=controls, means=means, covs=covs, faces=faces,
                        solve_seconds=0.0, iterations=0, message=why)
 
@@ -148,11 +148,13 @@ class Guidance:
         return t if self.cfg.horizon_mode == "receding" else max(2, t - step % t)
 
     def plan(self, mean: np.ndarray, cov: np.ndarray, goal: np.ndarray, warm: Plan | None = None,
-             step: int = 0) -> Plan:
+             step: int = 0, shift: int = 1) -> Plan:
         """Solve P1 from the belief ``N(mean (6,), cov (6, 6))`` (Eq. 8c) to ``goal (3,)``.
 
-        ``warm``: the previous plan of this target (its faces and terms, shifted one step);
-        with it the solve spends ``replan_budget_s``, without it ``time_limit_s``.
+        ``warm``: a plan made ``shift`` steps earlier (1: the previous step's plan of this
+        target; 0: a plan of this step from a nearby start), whose faces and terms, shifted
+        by ``shift`` steps, start the search; with it the solve spends ``replan_budget_s``,
+        without it ``time_limit_s``.
         ``step``: the mission step the plan starts at, which sets its horizon
         (:meth:`horizon_at`).
 
@@ -168,7 +170,7 @@ class Guidance:
             key = np.r_[mean, cov.ravel(), goal, horizon].tobytes()
             if key in self._cold:
                 return self._cold[key]
-        plan = self._plan(mean, cov, goal, warm, horizon, t0)
+        plan = self._plan(mean, cov, goal, None if warm is None else (warm, shift), horizon, t0)
         if key is not None:
             if len(self._cold) >= 256:
                 self._cold.pop(next(iter(self._cold)))
@@ -201,15 +203,16 @@ class Guidance:
         return np.stack(cols, axis=-1), smooth
 
     def replan(self, mean: np.ndarray, cov: np.ndarray, goal: np.ndarray, previous: Plan | None,
-               step: int) -> Plan:
+               step: int, shift: int = 1) -> Plan:
         """The closed loop's plan, which always exists: a new plan (:meth:`plan`); if none is
         found, a plan from the nearest start within the area and speed limit if the estimate
         is outside them (:meth:`_within_limits`), then from that position at rest (an
         estimate near the area's edge can head out faster than the force limit can turn;
         at rest, zero force is a plan); the message says which.  Failing those, ``previous``
         one step on (:meth:`Plan.shifted`); without a previous plan, zero force over the
-        horizon.  The last two have status "fallback" and say why."""
-        plan = self.plan(mean, cov, goal, warm=previous, step=step)
+        horizon.  The last two have status "fallback" and say why.  ``shift``: how many
+        steps before ``step`` ``previous`` was made (:meth:`plan`)."""
+        plan = self.plan(mean, cov, goal, warm=previous, step=step, shift=shift)
         if plan.ok:
             return plan
         inside, why = self._within_limits(mean)
@@ -219,12 +222,12 @@ class Guidance:
             tries.append((np.r_[inside[:3], 0.0, 0.0, inside[5]], f"no plan from the estimated velocity "
                           f"({mean[3]:.1f}, {mean[4]:.1f}) m/s; planned from rest at {where}"))
         for start, how in tries:
-            retry = self.plan(start, cov, goal, warm=previous, step=step)
+            retry = self.plan(start, cov, goal, warm=previous, step=step, shift=shift)
             if retry.ok:
                 return replace(retry, message="; ".join(filter(None, [how, retry.message])), moved_start=True)
         if previous is not None:
             return previous.shifted(self.dynamics, mean, cov, f"re-plan {plan.status} ({plan.message}); "
-                                                            "flying the previous plan")
+                                                            "flying the previous plan", shift)
         controls = np.zeros((self.horizon_at(step), 3))
         means, covs = self.dynamics.predict_moments(mean, cov, controls)
         return replace(plan, status="fallback", controls=controls, means=means, covs=covs,
@@ -260,7 +263,7 @@ class Guidance:
         if self.solver == "scip":
             status, obj, lb, u, faces, terms, it, msg = self._solve_scip(oa, x0, goal[:2], box)
         else:
-            shifted = None if warm is None or warm.faces is None else _shift_warm(warm, horizon)
+            shifted = None if warm is None or warm[0].faces is None else _shift_warm(*warm, horizon)
             seconds = self.cfg.time_limit if warm is None else self.cfg.replan_budget
             sol = oa.solve(x0, goal[:2], self.budget(seconds, master=warm is None), shifted, box)
             status, obj, lb, it, msg = sol.status, sol.objective, sol.lower_bound, sol.iterations, sol.message
@@ -323,9 +326,9 @@ class Guidance:
         return ("optimal" if status == cp.OPTIMAL else "feasible"), obj, lb, p.u.value, y, terms, 0, "SCIP via cvxpy"
 
 
-def _shift_warm(plan: Plan, horizon: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Faces, terms and planned points of ``plan`` one step on, fitted to a plan of
-    ``horizon`` steps: step tau of the new plan is step tau + 1 of the old one; missing
+def _shift_warm(plan: Plan, by: int, horizon: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Faces, terms and planned points of ``plan`` ``by`` steps on, fitted to a plan of
+    ``horizon`` steps: step tau of the new plan is step tau + by of the old one; missing
     steps repeat the last one (receding horizon) and surplus steps are dropped (shrinking
     horizon).  Points are ``(T-1, 2)`` positions for steps 2..T.  A plan with nothing left
     after the shift (a 2-step plan re-planned at the shortest horizon, 2) repeats its
@@ -336,8 +339,8 @@ def _shift_warm(plan: Plan, horizon: int) -> tuple[np.ndarray, np.ndarray, np.nd
         a = a if len(a) else full[-1:]
         return np.concatenate([a, np.repeat(a[-1:], max(rows - len(a), 0), axis=0)])[:rows]
 
-    d = plan.terms[2:].reshape(2, -1)[:, 1:]  # [d_x..., d_y...] (cvxpy's column-major order), shifted
+    d = plan.terms[2:].reshape(2, -1)[:, by:]  # [d_x..., d_y...] (cvxpy's column-major order), shifted
     d = np.concatenate([d, np.zeros((2, max(rows - d.shape[1], 0)))], axis=1)[:, :rows]
-    # old means[k] is p_{k+1}; the new plan's step tau = r + 2 is the old step r + 3 = means[r + 2]
-    return (fit(plan.faces[1:], plan.faces), np.r_[plan.terms[:2], d.reshape(-1)],
-            fit(plan.means[2:, :2], plan.means[:, :2]))
+    # old means[k] is p_{k+1}; the new plan's step tau = r + 2 is the old step r + 2 + by = means[r + 1 + by]
+    return (fit(plan.faces[by:], plan.faces), np.r_[plan.terms[:2], d.reshape(-1)],
+            fit(plan.means[1 + by:, :2], plan.means[:, :2]))
