@@ -40,7 +40,6 @@ from pathlib import Path
 
 import numpy as np
 from harness import machine, write
-from worlds import collisions, goal_distance, quantiles
 
 from uavsim.campaign import one_blas_thread, run_trial, trial_seeds
 from uavsim.config import load_mission
@@ -48,6 +47,7 @@ from uavsim.guidance import Guidance
 from uavsim.sim import Simulation
 from uavsim.uav import BASELINE
 from uavsim.worldgen import generate, mission_toml, world_toml
+from worlds import collisions, goal_distance, quantiles
 
 GAP = 1e-3  # the certified gap the figures count
 
@@ -190,15 +190,16 @@ def table(summary: list[dict]) -> str:
     lines = [head, "|" + "---|" * (head.count("|") - 1)]
     for r in summary:
         s = r["summary"]
-        lines.append(
-            f"| {r['obstacles']} | {r['targets']} | {r['setting']} | {q(s['first_seconds'], 'median')} / "
-            f"{q(s['first_seconds'], 'max')} | {share(s['first_certified'])} | {q(s['first_gap'], 'p90', fmt='{:.1e}')} "
-            f"| {share(s['first_in_goal'])} | {q(s['objective_over_best'], 'max', fmt='{:.3f}')} | {s['replans']} | "
-            f"{share(s['replans_certified'])} | {q(s['replan_seconds'], 'median', 1e3, '{:.1f}')} / "
-            f"{q(s['replan_seconds'], 'p99', 1e3, '{:.0f}')} | {q(s['step_seconds'], 'median')} / "
-            f"{q(s['step_seconds'], 'mean')} / {q(s['step_seconds'], 'max')} | {s['collisions']} | "
-            + (f"{s['rmse_mean']:.1f} / {s['rmse_baseline_mean']:.1f} m ({s['targets_below_baseline']}/{s['targets']} "
-               "below)" if s["rmse_mean"] is not None else "-") + " |")
+        rmse = "-" if s["rmse_mean"] is None else (f"{s['rmse_mean']:.1f} / {s['rmse_baseline_mean']:.1f} m "
+                                                   f"({s['targets_below_baseline']}/{s['targets']} below)")
+        cells = [r["obstacles"], r["targets"], r["setting"],
+                 f"{q(s['first_seconds'], 'median')} / {q(s['first_seconds'], 'max')}", share(s["first_certified"]),
+                 q(s["first_gap"], "p90", fmt="{:.1e}"), share(s["first_in_goal"]),
+                 q(s["objective_over_best"], "max", fmt="{:.3f}"), s["replans"], share(s["replans_certified"]),
+                 f"{q(s['replan_seconds'], 'median', 1e3, '{:.1f}')} / {q(s['replan_seconds'], 'p99', 1e3, '{:.0f}')}",
+                 f"{q(s['step_seconds'], 'median')} / {q(s['step_seconds'], 'mean')} / {q(s['step_seconds'], 'max')}",
+                 s["collisions"], rmse]
+        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
     return "\n".join(lines)
 
 
