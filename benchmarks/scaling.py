@@ -80,7 +80,8 @@ def first_plans(m, guidance, best_known: float) -> list[dict]:
         if long is not None:
             ref = long.plan(t.mean0, t.cov0, goal.centroid)
             row |= {"best_objective": min(ref.objective, plan.objective), "best_bound": max(ref.lower_bound, 0.0),
-                    "best_status": ref.status, "best_seconds": ref.solve_seconds}
+                    "best_status": ref.status, "best_gap": ref.gap, "best_seconds": ref.solve_seconds,
+                    "best_end_to_goal_m": goal_distance(m.world, t, ref.positions[-1, :2]) if ref.ok else None}
         out.append(row)
     return out
 
@@ -163,6 +164,7 @@ def summarize(cells: list[dict], setting: str) -> dict:
         "first_in_goal": float(np.mean([f["end_to_goal_m"] == 0.0 for f in ok])) if ok else None,
         "first_unreachable": sum(f["unreachable"] for f in first),
         "first_end_to_goal_m_outside": quantiles([f["end_to_goal_m"] for f in ok if f["end_to_goal_m"] > 0]),
+        "first_outside": why_outside([f for f in ok if f["end_to_goal_m"] > 0]),
         "objective_over_best": quantiles(best), "gap_to_best_bound": quantiles(proved),
         "replans": int(len(status)),
         "replans_certified": float(np.mean(np.isin(status, ("optimal", "feasible")) & (gaps <= GAP)))
@@ -175,6 +177,16 @@ def summarize(cells: list[dict], setting: str) -> dict:
         "rmse_over_baseline": quantiles(rmse / base) if len(rmse) else {},
         "targets_below_baseline": int(np.sum(rmse < base)), "targets": int(len(rmse)),
     }
+
+
+def why_outside(out: list[dict]) -> dict:
+    """First plans ending outside their goal region: how many are certified (then the soft
+    terminal term is why: the optimum ends outside), and how many a long run also ends
+    outside, certified or not (where it ends inside, the short run had not solved P1)."""
+    long = [f for f in out if f.get("best_end_to_goal_m") is not None]
+    return {"n": len(out), "certified": sum(f["status"] == "optimal" and f["gap"] <= GAP for f in out),
+            "long_run": len(long), "long_run_outside": sum(f["best_end_to_goal_m"] > 0 for f in long),
+            "long_run_outside_certified": sum(f["best_end_to_goal_m"] > 0 and f["best_gap"] <= GAP for f in long)}
 
 
 def table(summary: list[dict]) -> str:

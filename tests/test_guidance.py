@@ -215,6 +215,25 @@ def test_warm_start_gives_the_cold_optimum(paper_guidance, paper_plans):
         assert warm.objective == pytest.approx(cold.objective, rel=2 * MISSION.guidance.gap)
 
 
+def test_a_warm_plan_of_the_same_step_is_not_shifted(paper_guidance, paper_plans):
+    """``shift=0`` (a half of a particle cloud warm-started from the mean's plan of the
+    same step): from the plan's own start its faces are the optimum's, so the first QP is
+    the certified plan itself; from a start 5 m away the optimum is the cold one."""
+    from uavsim.guidance import _shift_warm
+
+    t, plan = MISSION.targets[0], paper_plans[0]
+    faces, terms, points = _shift_warm(plan, 0, MISSION.guidance.horizon)
+    np.testing.assert_array_equal(faces, plan.faces)
+    np.testing.assert_array_equal(points, plan.means[1:, :2])
+    same = paper_guidance.plan(t.mean0, t.cov0, GOAL, warm=plan, shift=0)
+    assert same.status == "optimal" and same.objective == pytest.approx(plan.objective, rel=1e-9)
+    near = t.mean0 + np.r_[5.0, -3.0, 0, 0, 0, 0]
+    warm = paper_guidance.plan(near, t.cov0, GOAL, warm=plan, shift=0)
+    cold = paper_guidance.plan(near, t.cov0, GOAL)
+    assert warm.status == cold.status == "optimal"
+    assert warm.objective == pytest.approx(cold.objective, rel=2 * MISSION.guidance.gap)
+
+
 def test_warm_start_from_a_two_step_plan_at_the_shortest_horizon(tmp_path):
     """The last re-plan of a shrinking horizon: a 2-step plan re-planned at horizon 2 has
     nothing left after the one-step shift, so its last step stands in.  Found on generated
