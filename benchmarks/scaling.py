@@ -24,7 +24,8 @@ would.  A setting ``cC-TERM`` runs it with ``filter.plan_clusters = C`` and
 
 Each city's result is kept in ``OUT/cells`` as it finishes (``--resume`` reuses those made
 with the same settings); ``OUT/scaling.json`` holds them all, the summary per (K, N,
-setting) and the machine (``benchmarks/harness.py``).  Every trial runs single-threaded;
+setting) and the machine (``benchmarks/harness.py``); ``OUT/summary.json`` the summary and
+the machine alone (the docs keep that one, ``docs/data/``).  Every trial runs single-threaded;
 ``--workers`` cities run side by side, one per core.
 """
 
@@ -64,7 +65,7 @@ def city(k: int, n: int, s: int, folder: Path) -> Path:
 
 def variant(path: Path, setting: str, steps: int, trials: int):
     clusters, terminal = setting[1:].split("-")
-    return load_mission(path, {"steps": steps, "trials": trials, "filter.plan_clusters": int(clusters),
+    return load_mission(path, {"steps": steps, "trials": max(trials, 1), "filter.plan_clusters": int(clusters),
                                "guidance.terminal": terminal})
 
 
@@ -254,8 +255,9 @@ def main() -> None:
                for k in ks for n in ns for x in settings]
     summary += [{"obstacles": "all", "targets": "all", "setting": x, "summary": summarize(cells, x)} for x in settings]
     write(out / "scaling.json", {"settings": vars(args), "summary": summary, "cells": cells}, started)
+    write(out / "summary.json", {"settings": vars(args), "summary": summary}, started)
     print(table(summary))
-    print(f"wrote {out / 'scaling.json'}")
+    print(f"wrote {out / 'scaling.json'} and {out / 'summary.json'} (the figures without the per-plan records)")
 
 
 if __name__ == "__main__":
