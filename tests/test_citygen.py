@@ -111,3 +111,12 @@ def test_generate_rejects_city_counts_out_of_range(kwargs):
 def test_unknown_kind():
     with pytest.raises(ValueError, match="unknown world kind"):
         generate(0, obstacles=3, kind="forest")
+
+
+def test_city_missions_give_first_plans_a_longer_budget(suite):
+    """The paper's numbers but the first plans' budget (60 nominal s: docs/guidance-cities.md)."""
+    from uavsim.worldgen import CITY_TIME_LIMIT_S
+
+    for g, m in suite:
+        assert m.guidance.time_limit == g.settings.time_limit_s == CITY_TIME_LIMIT_S == 60.0
+        assert m.guidance.replan_budget == 1.0 and m.guidance.horizon == 50 and m.filter.plan_clusters == 2

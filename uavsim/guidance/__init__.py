@@ -80,8 +80,9 @@ class Plan:
 
     @property
     def eventful(self) -> bool:
-        """A fallback or a plan from a moved start: the closed loop logs its message."""
-        return self.status == "fallback" or self.moved_start
+        """A fallback, a plan from a moved start, or a soft plan where a hard terminal was
+        asked for: the closed loop logs its message."""
+        return self.status == "fallback" or self.moved_start or self.unreachable
 
     @property
     def ok(self) -> bool:
