@@ -65,7 +65,7 @@ class ReplayedGuidance:
     def __init__(self, guidance):
         self.inner, self.calls = guidance, 0
 
-    def replan(self, mean, cov, goal, previous, step):
+    def replan(self, mean, cov, goal, previous, step, shift=1):
         return self.plan()
 
     def sensitivity(self, start, goal, plan, step=0):  # the truth's, for the PCRLB only
