@@ -75,9 +75,9 @@ def _blocks(rng, need: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _mergeable(a: np.ndarray, b: np.ndarray) -> bool:
-    """Two cells sharing a street along their whole side (same row or column)."""
-    return bool(np.all(a[0] == b[0]) or np.all(a[1] == b[1]) or (a[0, 0] == b[0, 0] and a[1, 0] == b[1, 0])
-                or (a[0, 1] == b[0, 1] and a[1, 1] == b[1, 1]))
+    """Two cells ``[lo, hi] (2, 2)`` facing each other across a street along their whole
+    side: the same x-interval (one above the other) or the same y-interval."""
+    return bool(np.all(a[:, 0] == b[:, 0]) or np.all(a[:, 1] == b[:, 1]))
 
 
 # --------------------------------------------------------------------------- buildings

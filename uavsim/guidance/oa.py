@@ -223,9 +223,9 @@ class OuterApproximation:
         rows of ``p_T`` are tightened to it); a proof that no plan ends there says so in
         the message (:data:`UNREACHABLE`, :data:`NO_SAFE_ARRIVAL`).
 
-        ``warm = (y, s, points)``: the previous plan's faces ``(T-1, n, 4)``, terms ``(K,)``
-        and positions ``(T-1, 2)``, shifted by one step; the faces are tried first and the
-        terms seed the cuts.  The
+        ``warm = (y, s, points)``: an earlier plan's faces ``(T-1, n, 4)``, terms ``(K,)``
+        and positions ``(T-1, 2)``, shifted to this solve's steps; the faces are tried first
+        and the terms seed the cuts.  The
         solver keeps no other state: a solve depends on its arguments (and, only when the
         wall-clock cap stops it, on time).
 
