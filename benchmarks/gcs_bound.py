@@ -1,6 +1,7 @@
 """Does a graph-of-convex-sets relaxation bound P1 more tightly than branching?
 
     python benchmarks/gcs_bound.py [--cities 11:50:8,13:100:16] [--targets 4] [--out runs/gcs]
+    python benchmarks/gcs_bound.py --report runs/gcs/gcs.json      # the docs' markdown table
 
 [Marcucci2023] plans around obstacles by a shortest path in a graph whose vertices are
 convex free regions, with every edge's constraints and cost written in perspective; the
@@ -28,6 +29,7 @@ GCS bound, their ratios to the optimum, and the seconds.
 from __future__ import annotations
 
 import argparse
+import json
 import time
 from collections import defaultdict
 from dataclasses import replace
@@ -214,13 +216,27 @@ def city(seed: int, k: int, n: int, folder: Path) -> Path:
     return folder / f"city-s{seed}.toml"
 
 
+def table(rows: list[dict]) -> str:
+    lines = ["| mission | target | optimum (m^2) | obstacle-free QP / optimum | GCS / optimum | GCS seconds | edges |",
+             "|---|---|---|---|---|---|---|"]
+    for r in rows:
+        opt = max(r["optimum"], 1.0)
+        lines.append(f"| {r['mission']} | {r['target']} | {r['optimum']:.1f} | {r['relaxation'] / opt:.3f} | "
+                     f"{r['gcs'] / opt:.3f} | {r['seconds']:.2f} | {r['edges']} |")
+    return "\n".join(lines)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cities", default="11:50:8", help="comma-separated SEED:BUILDINGS:TARGETS")
     ap.add_argument("--targets", type=int, default=4, help="targets per mission (the first ones)")
     ap.add_argument("--budget", type=float, default=300.0, help="nominal seconds of the solver's certified optimum")
     ap.add_argument("--out", default="runs/gcs")
+    ap.add_argument("--report", metavar="JSON", help="print the markdown table of a finished run and stop")
     args = ap.parse_args()
+    if args.report:
+        print(table(json.loads(Path(args.report).read_text())["rows"]))
+        return
     started, rows = machine(), []
     out = Path(args.out)
     missions = [Path(__file__).resolve().parents[1] / "missions" / "paper.toml"]
