@@ -30,6 +30,7 @@ import numpy as np
 from uavsim.campaign import load_trials, run_campaign
 from uavsim.config import load_mission
 from uavsim.pcrlb import _q2_quadrature, information_reduction_factor, pcrlb_for_trials, pcrlb_planned
+from uavsim.uav.fixed import fixed_sensor
 
 
 def irf_table(sigma: float, p_detect: float, rate: float) -> None:
@@ -58,7 +59,7 @@ def main() -> None:
     if args.truth:
         mission = replace(mission, truth=args.truth)
     fixed = args.planner == "fixed-sensors"
-    sensor = mission.planner.fixed_sensors.sensor if fixed else mission.sensor
+    sensor = fixed_sensor(mission) if fixed else mission.sensor
     irf_table(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
 
     folder = Path(args.out) / f"{Path(args.mission).stem}-{mission.truth}-{args.planner}"

@@ -41,11 +41,12 @@ def test_starts_are_free_and_goals_reachable_within_the_horizon(suite):
         s = g.settings
         _, lo, hi = ground_footprints(m.world.obstacle_lo, m.world.obstacle_hi, s.margin)
         for t in m.targets:
-            p0, p1 = t.mean0[:2], t.mean0[:2] + t.mean0[3:5] * s.dt_s
+            p0, p1 = t.mean0[:2], t.mean0[:2] + t.mean0[3:5] * m.dynamics.dt
             if len(lo):
                 assert segment_box_distance(p0, p1, lo, hi).min() >= s.margin
             route = shortest_route(p0, m.world.goals[t.goal].centroid[:2], lo, hi, m.world.area_lo, m.world.area_hi)
-            assert route is not None and route.length <= REACH_FRACTION * s.horizon * s.dt_s * s.speed_max_mps
+            reach = REACH_FRACTION * m.guidance.horizon * m.dynamics.dt * m.guidance.speed_max
+            assert route is not None and route.length <= reach
 
 
 def test_cities_are_street_grids_with_plazas_courtyards_and_dead_ends(suite):
@@ -118,5 +119,5 @@ def test_city_missions_give_first_plans_a_longer_budget(suite):
     from uavsim.worldgen import CITY_TIME_LIMIT_S
 
     for g, m in suite:
-        assert m.guidance.time_limit == g.settings.time_limit_s == CITY_TIME_LIMIT_S == 60.0
+        assert m.guidance.time_limit == g.settings.guidance.time_limit == CITY_TIME_LIMIT_S == 60.0
         assert m.guidance.replan_budget == 1.0 and m.guidance.horizon == 50 and m.filter.plan_clusters == 2

@@ -66,9 +66,10 @@ BAD_MISSIONS = [
     # (mission text, key path, message fragment)
     (sub("clutter_rate = 1.0", "clutter_rate = 1.0\ncolour = 'red'"), "sensor.colour", "unknown key"),
     (sub("[planner]\n", "[planner]\nnmae = 'x'\n"), "planner.nmae", "unknown key (did you mean 'name'?)"),
-    (sub("p_detect = 0.95\n", ""), "sensor.p_detect", "missing required key"),
-    (sub("sigma_deg = 1.0", "sigma_dg = 1.0"), "sensor.sigma_deg", "missing required key (found 'sigma_dg'"),
-    (sub("[dynamics]", "[dynamix]"), "dynamics", "missing required key"),
+    (sub('name = "T1"\n', ""), "targets[0].name", "missing required key"),
+    (sub("world = ", "wrld = "), "world", "missing required key (found 'wrld'; misspelt?)"),
+    (sub("sigma_deg = 1.0", "sigma_dg = 1.0"), "sensor.sigma_dg", "unknown key (did you mean 'sigma_deg'?)"),
+    (sub("[dynamics]", "[dynamix]"), "dynamix", "unknown key (did you mean 'dynamics'?)"),
     (sub("n_theta = 15", 'n_theta = "15"'), "uav.n_theta", "expected an integer, got str '15'"),
     (sub("steps = 50", "steps = 50.5"), "steps", "expected an integer"),
     (sub("sigma_deg = 1.0", "sigma_deg = true"), "sensor.sigma_deg", "expected a number, got boolean true"),
@@ -90,10 +91,10 @@ BAD_MISSIONS = [
             " [0, 0, 0, 3, 0, 0], [0, 0, 0, 0, 3, 0], [0, 0, 0, 0, 0, 1]]"),
         "dynamics.process_noise_cov_si", "not symmetric",
     ),
-    (sub("p_detect = 0.95", "p_detect = 1.5"), "sensor.p_detect", "must be <= 1"),
-    (sub("p_detect = 0.95", "p_detect = -0.1"), "sensor.p_detect", "must be >= 0"),
-    (sub("clutter_rate = 1.0", "clutter_rate = -1.0"), "sensor.clutter_rate", "must be >= 0"),
-    (sub("n_theta = 15", "n_theta = 0"), "uav.n_theta", "must be >= 1"),
+    (sub("p_detect = 0.95", "p_detect = 1.5"), "sensor.p_detect", "must be in [0, 1], got 1.5"),
+    (sub("p_detect = 0.95", "p_detect = -0.1"), "sensor.p_detect", "must be in [0, 1], got -0.1"),
+    (sub("clutter_rate = 1.0", "clutter_rate = -1.0"), "sensor.clutter_rate", "must be in [0, 100] per scan, got -1"),
+    (sub("n_theta = 15", "n_theta = 0"), "uav.n_theta", "must be in [1, 360], got 0"),
     (sub("position_m = [238.0, 706.0, 0.0]", "position_m = [350.0, 500.0, 0.0]"),
      "targets[1].position_m", "inside obstacle 'A'"),
     (sub("position_m = [238.0, 706.0, 0.0]", "position_m = [1238.0, 706.0, 0.0]"),
@@ -109,7 +110,7 @@ BAD_MISSIONS = [
     (NO_TARGETS.replace("seed = 2023", "seed = 2023\ntargets = []"), "targets", "at least one"),
     (sub("particles = 5000", 'kind = "ub-plkf"'), "filter.kind", "ub-plkf has no clutter model"),
     (sub("particles = 5000", 'kind = "ekf"'), "filter.kind", "must be one of particle, plkf"),
-    (sub("plan_clusters = 1", "plan_clusters = 3"), "filter.plan_clusters", "must be <= 2"),
+    (sub("plan_clusters = 1", "plan_clusters = 3"), "filter.plan_clusters", "must be in [1, 2], got 3"),
     (sub("horizon = 50", 'horizon = 50\nterminal = "firm"'), "guidance.terminal", "must be one of soft, hard"),
     (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "plkf"')
      .replace("plan_clusters = 1", "plan_clusters = 2")
@@ -174,7 +175,7 @@ def test_cli_subprocess_has_no_traceback(tmp_path):
     proc = subprocess.run([sys.executable, "-m", "uavsim", "validate", str(path)], capture_output=True, text=True)
     assert proc.returncode == 2
     assert proc.stdout == ""
-    assert proc.stderr == f"error: {path}: sensor.p_detect: must be <= 1, got 2.0\n"
+    assert proc.stderr == f"error: {path}: sensor.p_detect: must be in [0, 1], got 2\n"
 
 
 # --------------------------------------------------------------------------- area, sensors, reachability
@@ -213,22 +214,26 @@ def test_fixed_sensors_outside_the_area_or_in_an_obstacle(tmp_path, capsys):
     assert "fixed sensor 0 at [375, 525] is inside obstacle 'A'" in capsys.readouterr().err
 
 
-def test_default_fixed_sensors_are_checked_and_named_as_defaults(tmp_path, capsys):
-    """A world 880 m deep: the default sensor (500, 900), which applies when the mission
-    gives none, is outside it; the message says so and names the key to set."""
+def test_default_fixed_sensors_follow_the_area_and_are_checked_when_they_run(tmp_path, capsys):
+    """The default sensors are (0.15, 0.2), (0.8, 0.2), (0.5, 0.9) of the area: in a world
+    880 m deep (500, 792), not the paper's (500, 900) outside it, so the mission validates.
+    Where a default falls inside an obstacle, the mission still validates (it may never
+    run that planner); running the fixed-sensors planner names the key to set."""
     mission = sub(SENSORS, "").replace("925.0, 0.0]", "825.0, 0.0]")
     path = write_case(tmp_path, mission=mission, world=wsub("max_m = [1000.0, 1000.0, 1000.0]",
                                                             "max_m = [1000.0, 880.0, 1000.0]"))
-    assert main(["validate", str(path)]) == 2
-    err = capsys.readouterr().err
-    assert err.startswith(f"error: {path}: planner.fixed_sensors.positions_m: the default fixed-sensor position "
-                          "[500, 900] (defaults [150, 200], [800, 200], [500, 900], "
-                          "used when the mission gives none) "
-                          "is outside the area [0, 0]..[1000, 880]: set planner.fixed_sensors.positions_m")
+    m = load_mission(path)
+    np.testing.assert_array_equal(m.planner.fixed_sensors.positions[:, :2], [[150, 176], [800, 176], [500, 792]])
     world = WORLD_TEXT.replace("[[obstacles]]", MAST + "[[obstacles]]", 1)
     path = write_case(tmp_path, mission=sub(SENSORS, ""), world=world)
-    assert main(["validate", str(path)]) == 2
-    assert "the default fixed-sensor position [500, 900]" in capsys.readouterr().err
+    assert main(["validate", str(path)]) == 0
+    capsys.readouterr()
+    assert main(["run", str(path), "--planner", "fixed-sensors", "--trials", "1", "--steps", "1",
+                 "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: {path}: planner.fixed_sensors.positions_m: fixed sensor 2 at [500, 900] is inside "
+                          "obstacle 'mast'; the mission gives no positions"), err
+    assert err.count("\n") == 1
 
 
 @pytest.mark.parametrize("which", ["mission", "world"])

@@ -56,17 +56,17 @@ def test_starts_are_free_and_goals_reachable_within_the_horizon(suite):
     """Checked independently of the generator: the shortest free path from every start
     to its goal's centre is at most 0.6 T dt v_max, and p0 and p1 = p0 + v0 dt keep one
     margin outside every inflated obstacle."""
-    for g, m in suite:
-        s = g.settings
-        margin = s.speed_max_mps * s.dt_s / 2 + s.clearance_m
+    for _, m in suite:
+        margin = m.guidance.speed_max * m.dynamics.dt / 2 + m.guidance.clearance
         _, lo, hi = ground_footprints(m.world.obstacle_lo, m.world.obstacle_hi, margin)
         for t in m.targets:
-            p0, p1 = t.mean0[:2], t.mean0[:2] + t.mean0[3:5] * s.dt_s
+            p0, p1 = t.mean0[:2], t.mean0[:2] + t.mean0[3:5] * m.dynamics.dt
             goal = m.world.goals[t.goal].centroid[:2]
             if len(lo):
                 assert segment_box_distance(p0, p1, lo, hi).min() >= margin
             route = shortest_route(p0, goal, lo, hi, m.world.area_lo, m.world.area_hi)
-            assert route is not None and route.length <= REACH_FRACTION * s.horizon * s.dt_s * s.speed_max_mps
+            reach = REACH_FRACTION * m.guidance.horizon * m.dynamics.dt * m.guidance.speed_max
+            assert route is not None and route.length <= reach
 
 
 def test_the_suite_is_varied(suite):

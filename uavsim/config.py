@@ -18,22 +18,29 @@ from __future__ import annotations
 import difflib
 import math
 import os
+import stat
 import tomllib
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .belief import KINDS, FilterConfig
+from .belief import FilterConfig
+from .declare import REQUIRED, SettingError, Spec, si_array, specs
 from .guidance.model import GuidanceConfig
-from .mission import TRUTH_MODES, Mission, MissionError
+from .mission import Mission, MissionError
 from .sensing import Sensor
-from .targets import Dynamics, Target
-from .uav import PLANNERS, FixedSensorsConfig, LookaheadConfig, ManoeuvreConfig, PlannerConfig, UavConfig
+from .targets import TARGET_KEYS, Dynamics, Target
+from .uav import FixedSensorsConfig, LookaheadConfig, ManoeuvreConfig, PlannerConfig, UavConfig
+from .uav.fixed import FIXED_FRACTIONS, fixed_sensor_problem
+from .uav.manoeuvres import default_sizes
 from .world import GoalRegion, Region2D, World, free_space, ground_footprints, inside_polytopes
 
-DEFAULT_FIXED_SENSORS = [[150.0, 200.0], [800.0, 200.0], [500.0, 900.0]]  # 004 Sec. VI-B, a 1 km area
-_MISSING = object()
+_MISSING = REQUIRED
+MAX_FILE_BYTES = 16 * 2**20  # a mission or world file larger than this is not one a person wrote
+MAX_COORDINATE_M = 1e7  # 10 000 km: an area beyond this is a unit mistake, and squares of it overflow
+MAX_ACCELERATION = 100.0  # m/s^2: force_max_n / mass_kg above 10 g is not a ground vehicle
 
 
 # --------------------------------------------------------------------------- reader
@@ -65,18 +72,50 @@ class _Table:
         return default
 
     def number(self, key, default=_MISSING, *, lo=None, hi=None, lo_open=False, integer=False):
-        value = self._get(key, default)
-        if value is default and default is not _MISSING:
-            return value
+        spec = Spec(key, "integer" if integer else "number", "", default=default, lo=lo, hi=hi, lo_open=lo_open)
+        return self.read(spec)
+
+    def read(self, spec: Spec, default: Any = None) -> Any:
+        """The value of a declared setting, checked against its declaration; ``default``
+        replaces a derived default (None: the spec's own default)."""
+        key = spec.key
+        value = self._get(key, _MISSING if spec.required else None)
+        if key not in self.data:  # the default: declared, or derived (None: the class derives it)
+            value = default if spec.derived else spec.default
+            if value is None or spec.derived:
+                return value
+            return si_array(spec, value) if spec.kind in ("array", "covariance") else (
+                spec.to_si(value) if spec.to_si else value)
+        if spec.kind in ("number", "integer"):
+            value = self._scalar(spec, value)
+        elif spec.kind == "string":
+            if not isinstance(value, str):
+                self.fail(key, f"expected a string, got {_describe(value)}")
+            if spec.choices is not None and value not in spec.choices:
+                self.fail(key, f"must be one of {', '.join(spec.choices)}; got {value[:40]!r}")
+        elif spec.kind == "boolean":
+            if not isinstance(value, bool):
+                self.fail(key, f"expected true or false, got {_describe(value)}")
+        elif spec.kind == "covariance":
+            value = self.covariance(key, spec.shape[0], hi=spec.hi)
+        else:
+            value = self.array(key, spec.shape)
+            if (spec.lo is not None and np.any(value < spec.lo)) or (spec.hi is not None and np.any(value > spec.hi)):
+                self.fail(key, f"every entry must be in {spec.range_text()} {spec.unit}".rstrip())
+        return spec.to_si(value) if spec.to_si else value
+
+    def _scalar(self, spec: Spec, value: Any):
+        key, integer = spec.key, spec.kind == "integer"
         kind = "an integer" if integer else "a number"
         if isinstance(value, bool) or not isinstance(value, int if integer else (int, float)):
             self.fail(key, f"expected {kind}, got {_describe(value)}")
-        if not math.isfinite(value):
+        if isinstance(value, float) and not math.isfinite(value):
             self.fail(key, f"expected a finite number, got {value}")
-        if lo is not None and (value <= lo if lo_open else value < lo):
-            self.fail(key, f"must be {'>' if lo_open else '>='} {lo}, got {value}")
-        if hi is not None and value > hi:
-            self.fail(key, f"must be <= {hi}, got {value}")
+        problem = spec.out_of_range(value)
+        if problem:
+            self.fail(key, problem)
+        if isinstance(value, int) and not integer and abs(value) > 2**1000:
+            self.fail(key, f"an integer of {len(str(abs(value)))} digits is too large for a number")
         return int(value) if integer else float(value)
 
     def string(self, key, default=_MISSING, choices=None) -> str:
@@ -102,8 +141,9 @@ class _Table:
             self.fail(key, "expected finite numbers, got inf or nan")
         return arr
 
-    def covariance(self, key: str, n: int) -> np.ndarray:
-        """An n x n covariance, written as its diagonal (n variances) or in full."""
+    def covariance(self, key: str, n: int, hi: float | None = None) -> np.ndarray:
+        """An n x n covariance, written as its diagonal (n variances) or in full; no
+        variance above ``hi``."""
         value = self._get(key, _MISSING)
         arr = _numeric_array(value)
         if arr is not None and arr.shape == (n,):
@@ -115,6 +155,9 @@ class _Table:
         if np.any(np.diag(arr) < 0):
             i = int(np.argmax(np.diag(arr) < 0))
             self.fail(key, f"variance {i} is negative ({arr[i, i]})")
+        if hi is not None and np.any(np.diag(arr) > hi):
+            i = int(np.argmax(np.diag(arr) > hi))
+            self.fail(key, f"variance {i} is {arr[i, i]:g}, above {hi:g}")
         if not np.allclose(arr, arr.T, rtol=1e-12, atol=0):
             self.fail(key, "matrix is not symmetric")
         try:
@@ -123,10 +166,14 @@ class _Table:
             self.fail(key, "covariance is not positive definite")
         return arr
 
-    def table(self, key: str, optional: bool = False) -> "_Table | None":
+    def table(self, key: str, optional: bool = False, empty: bool = False) -> "_Table | None":
+        """A sub-table; if ``optional`` and absent, None (or, with ``empty``, an empty table
+        whose settings all take their defaults)."""
         value = self._get(key, None if optional else _MISSING)
+        if value is None and key in self.data:
+            self.fail(key, "expected a table, got None")
         if value is None:
-            return None
+            return _Table(self.file, self.path(key), {}) if empty else None
         if not isinstance(value, dict):
             self.fail(key, f"expected a table, got {_describe(value)}")
         return _Table(self.file, self.path(key), value)
@@ -147,7 +194,7 @@ class _Table:
 def _numeric_array(value: Any) -> np.ndarray | None:
     """A rectangular array of real numbers (no bools, no strings), else None."""
     def ok(v):
-        return isinstance(v, (int, float)) and not isinstance(v, bool)
+        return isinstance(v, (int, float)) and not isinstance(v, bool) and (isinstance(v, float) or abs(v) < 2**1000)
 
     if not isinstance(value, list):
         return None
@@ -166,11 +213,24 @@ def _describe(value: Any) -> str:
         return "a table"
     if isinstance(value, list):
         return f"a list of length {len(value)}"
-    return f"{type(value).__name__} {value!r}"
+    if isinstance(value, int) and abs(value) > 10**20:
+        return f"an integer of {len(str(abs(value)))} digits"
+    text = repr(value)
+    return f"{type(value).__name__} {text if len(text) <= 60 else text[:57] + '...'}"
 
 
 def _load_toml(path: Path, referrer: tuple[Path, str] | None = None) -> dict[str, Any]:
+    """A TOML file's tables.  Only a regular file of at most :data:`MAX_FILE_BYTES` is read
+    (a FIFO would block, ``/dev/zero`` never ends)."""
     try:
+        st = os.stat(path)
+        if stat.S_ISDIR(st.st_mode):
+            raise IsADirectoryError
+        if not stat.S_ISREG(st.st_mode):
+            raise MissionError(path, "(file)", "not a regular file (a FIFO, device or socket)")
+        if st.st_size > MAX_FILE_BYTES:
+            raise MissionError(path, "(file)", f"{st.st_size / 2**20:.0f} MiB: larger than the "
+                                               f"{MAX_FILE_BYTES // 2**20} MiB a mission or world file may be")
         with open(path, "rb") as fh:
             return tomllib.load(fh)
     except FileNotFoundError:
@@ -185,6 +245,8 @@ def _load_toml(path: Path, referrer: tuple[Path, str] | None = None) -> dict[str
         raise MissionError(path, "(file)", "not valid TOML: not UTF-8 text") from None
     except RecursionError:
         raise MissionError(path, "(file)", "not valid TOML: arrays or tables nested too deeply") from None
+    except ValueError as exc:  # an integer of more than 4300 digits
+        raise MissionError(path, "(file)", f"not valid TOML: {str(exc)[:80]}") from None
     except OSError as exc:  # unreadable (permission), a broken device, ...
         raise MissionError(path, "(file)", f"cannot read: {exc.strerror or exc}") from None
 
@@ -197,6 +259,9 @@ def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> Wo
     name = top.string("name", default=path.stem)
     area = top.table("area")
     lo, hi = area.array("min_m", (3,)), area.array("max_m", (3,))
+    for key, corner in (("min_m", lo), ("max_m", hi)):
+        if np.any(np.abs(corner) > MAX_COORDINATE_M):
+            area.fail(key, f"coordinates beyond +-{MAX_COORDINATE_M:g} m are not a world (got {_fmt(corner)})")
     if np.any(hi <= lo):
         area.fail("max_m", f"must exceed min_m in every axis, got min {lo.tolist()} max {hi.tolist()}")
     area.finish()
@@ -292,6 +357,18 @@ def _set_key(data: dict, key: str, value, path: Path) -> None:
         node[parts[-1]] = value
 
 
+def _plain(value: Any) -> Any:
+    """An override as TOML would hold it: NumPy scalars and arrays, tuples -> Python
+    numbers and lists (so a script's ``np.int64(8)`` or ``np.array([1, 2, 3])`` reads)."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
 def load_mission(path: str | Path, overrides: dict[str, object] | None = None) -> Mission:
     """Read a mission file and the world it names; validate everything.
 
@@ -308,7 +385,7 @@ def load_mission(path: str | Path, overrides: dict[str, object] | None = None) -
     overrides = overrides or {}
     for key, value in overrides.items():
         try:
-            _set_key(data, key, value, path)
+            _set_key(data, key, _plain(value), path)
         except (IndexError, ValueError, KeyError):
             raise MissionError(path, key, "no such key to set (array index out of range?)") from None
     try:
@@ -325,66 +402,59 @@ def _mission(path: Path, data: dict) -> Mission:
     world_path = Path(os.path.normpath(path.parent / world_rel))
     world = load_world(world_path, referrer=(path, "world"))
 
-    dynamics = _dynamics(top.table("dynamics"))
-    sensor = _sensor(top.table("sensor"))
-    uav = _uav(top.table("uav"), world)
-    targets = tuple(_target(t, world) for t in top.tables("targets"))
-    if not targets:
-        top.fail("targets", "at least one [[targets]] table is required")
-    guidance = _guidance(top.table("guidance"))
+    dynamics = _section(top.table("dynamics", optional=True, empty=True), Dynamics)
+    sensor = _section(top.table("sensor", optional=True, empty=True), Sensor)
+    uav = _uav(top.table("uav", optional=True, empty=True), world)
+    targets = _targets(top, world)
+    guidance = _section(top.table("guidance", optional=True, empty=True), GuidanceConfig)
+    g = top.table("guidance", optional=True, empty=True)
+    if guidance.force_max / dynamics.mass > MAX_ACCELERATION:
+        g.fail("force_max_n", f"force_max_n / dynamics.mass_kg = {guidance.force_max / dynamics.mass:.3g} m/s^2 is "
+                              f"above {MAX_ACCELERATION:g} m/s^2 (10 g): not a ground vehicle")
     _check_goals_reachable(path, world, dynamics, guidance, targets)
-    filt = _filter(top.table("filter"), sensor)
-    planner = _planner(top.table("planner"), uav, sensor, world)
-    if filt.kind != "particle" and planner.fixed_sensors.sensor.clutter_rate > 0:
+    filt = _filter(top.table("filter", optional=True, empty=True), sensor)
+    planner = _planner(top.table("planner", optional=True, empty=True), uav, world)
+    if filt.kind != "particle" and planner.fixed_sensors.clutter_rate > 0:
         raise MissionError(path, "planner.fixed_sensors.clutter_rate", f"filter.kind = {filt.kind} needs clutter-free "
                            "sensors; set it to 0 or use the particle filter")
-    mission = Mission(
-        path=path, world_path=world_path, world=world, dynamics=dynamics, targets=targets,
-        sensor=sensor, uav=uav, guidance=guidance, filter=filt, planner=planner,
-        steps=top.number("steps", integer=True, lo=1),
-        trials=top.number("trials", integer=True, lo=1),
-        seed=top.number("seed", integer=True, lo=0),
-        truth=top.string("truth", default="planned", choices=TRUTH_MODES),
-        description=top.string("description", default=""),
-    )
+    top_values = {name: top.read(spec) for name, spec in specs(Mission)}
+    mission = Mission(path=path, world_path=world_path, world=world, dynamics=dynamics, targets=targets,
+                      sensor=sensor, uav=uav, guidance=guidance, filter=filt, planner=planner, **top_values)
     top.finish()
     return mission
 
 
-def _dynamics(t: _Table) -> Dynamics:
-    d = Dynamics(
-        dt=t.number("dt_s", lo=0, lo_open=True),
-        friction=t.number("friction", lo=0, hi=1),
-        mass=t.number("mass_kg", lo=0, lo_open=True),
-        q=t.covariance("process_noise_cov_si", 6),
-    )
+def _section(t: _Table, cls, derived: dict[str, Any] | None = None, **given):
+    """A settings dataclass from its table: every declared field read and checked
+    (``derived``: defaults computed from the world), the rest ``given``; a
+    :class:`SettingError` the class raises is mapped to its key in this table."""
+    derived = derived or {}
+    values = {name: t.read(spec, derived.get(name)) for name, spec in specs(cls)}
     t.finish()
-    return d
-
-
-def _sensor(t: _Table) -> Sensor:
-    s = Sensor(
-        sigma=math.radians(t.number("sigma_deg", lo=0, lo_open=True)),
-        p_detect=t.number("p_detect", lo=0, hi=1),
-        clutter_rate=t.number("clutter_rate", lo=0),
-    )
-    t.finish()
-    return s
+    try:
+        return cls(**values, **given)
+    except SettingError as exc:
+        t.fail(exc.key, exc.message)
 
 
 def _uav(t: _Table, world: World) -> UavConfig:
     region = _region(t.table("operating_region", optional=True), world)
-    uav = UavConfig(
-        start=t.array("start_m", (3,)),
-        step=t.number("step_m", lo=0, lo_open=True),
-        n_theta=t.number("n_theta", integer=True, lo=1),
-        n_r=t.number("n_r", integer=True, lo=1),
-        altitude=t.number("altitude_m", lo=0, lo_open=True),
-        region=region,
-        random_start=_boolean(t, "random_start", False),
-    )
-    _check_point(world, t, "start_m", uav.start, "UAV start", region)
-    t.finish()
+    height = float(world.area_hi[2] - world.area_lo[2])
+    altitude = t.read(dict(specs(UavConfig))["altitude"], default=float(world.area_lo[2]) + min(40.0, height / 2))
+    if not world.area_lo[2] < altitude <= world.area_hi[2]:
+        t.fail("altitude_m", f"must lie within the area's height ({world.area_lo[2]:g}, {world.area_hi[2]:g}] m, "
+                             f"got {altitude:g}")
+    box_lo, box_hi = (region.vertices.min(0), region.vertices.max(0)) if region else (world.area_lo[:2],
+                                                                                      world.area_hi[:2])
+    start = np.r_[box_lo + np.array([0.15, 0.2]) * (box_hi - box_lo), altitude]
+    given_start = t.has("start_m")
+    uav = _section(t, UavConfig, {"start": start, "altitude": altitude}, region=region)
+    if uav.n_r * uav.step > float(np.max(world.area_hi[:2] - world.area_lo[:2])):
+        t.fail("step_m", f"n_r x step_m = {uav.n_r * uav.step:g} m is longer than the area "
+                         f"({_fmt(world.area_hi[:2] - world.area_lo[:2])} m)")
+    if given_start or not uav.random_start:
+        _check_point(world, t, "start_m", uav.start, "UAV start" + ("" if given_start else
+                     " (the default, 0.15 and 0.2 of the region; set uav.start_m)"), region)
     return uav
 
 
@@ -412,116 +482,58 @@ def _region(t: _Table | None, world: World) -> Region2D | None:
     return region
 
 
+def _targets(top: _Table, world: World) -> tuple[Target, ...]:
+    tables = top.tables("targets")
+    if not tables:
+        top.fail("targets", "at least one [[targets]] table is required")
+    targets = tuple(_target(t, world) for t in tables)
+    seen: dict[str, int] = {}
+    for i, (t, target) in enumerate(zip(tables, targets)):
+        if target.name in seen:
+            t.fail("name", f"'{target.name}' is also the name of targets[{seen[target.name]}]; names must be unique")
+        seen[target.name] = i
+    return targets
+
+
 def _target(t: _Table, world: World) -> Target:
     goal_names = [g.name for g in world.goals]
-    name = t.string("name")
-    position = t.array("position_m", (3,))
-    velocity = t.array("velocity_mps", (3,), default=[0.0, 0.0, 0.0])
-    goal = t.string("goal")
-    if goal not in goal_names:
-        t.fail("goal", f"no goal region '{goal}' in the world (it has: {', '.join(goal_names)})")
-    _check_point(world, t, "position_m", position, "target start")
-    target = Target(name=name, mean0=np.concatenate([position, velocity]),
-                    cov0=t.covariance("cov0_si", 6), goal=goal_names.index(goal))
+    v = {spec.key: t.read(spec) for spec in TARGET_KEYS}
+    if not v["name"].strip():
+        t.fail("name", "must not be empty")
+    if v["goal"] not in goal_names:
+        t.fail("goal", f"no goal region {v['goal'][:40]!r} in the world (it has: {', '.join(goal_names)})")
+    _check_point(world, t, "position_m", v["position_m"], "target start")
     t.finish()
-    return target
-
-
-def _guidance(t: _Table) -> GuidanceConfig:
-    g = GuidanceConfig(
-        horizon=t.number("horizon", integer=True, lo=2),
-        rho=t.number("rho", lo=0),
-        force_max=t.number("force_max_n", lo=0, lo_open=True),
-        speed_max=t.number("speed_max_mps", lo=0, lo_open=True),
-        speed_sides=t.number("speed_polygon_sides", default=16, integer=True, lo=4),
-        clearance=t.number("clearance_m", default=0.0, lo=0),
-        gap=t.number("gap", default=1e-4, lo=0, lo_open=True, hi=1),
-        time_limit=t.number("time_limit_s", default=10.0, lo=0, lo_open=True),
-        replan_budget=t.number("replan_budget_s", default=1.0, lo=0, lo_open=True),
-        horizon_mode=t.string("horizon_mode", default="receding", choices=("receding", "shrinking")),
-        terminal=t.string("terminal", default="soft", choices=("soft", "hard")),
-    )
-    t.finish()
-    return g
+    return Target(name=v["name"], mean0=np.concatenate([v["position_m"], v["velocity_mps"]]), cov0=v["cov0_si"],
+                  goal=goal_names.index(v["goal"]))
 
 
 def _filter(t: _Table, sensor: Sensor) -> FilterConfig:
-    kind = t.string("kind", default="particle", choices=KINDS)
-    if kind != "particle" and sensor.clutter_rate > 0:
-        t.fail("kind", f"{kind} has no clutter model: it needs sensor.clutter_rate = 0 "
+    f = _section(t, FilterConfig)
+    if f.kind != "particle" and sensor.clutter_rate > 0:
+        t.fail("kind", f"{f.kind} has no clutter model: it needs sensor.clutter_rate = 0 "
                        f"(got {sensor.clutter_rate:g}); use kind = \"particle\"")
-    f = FilterConfig(
-        kind=kind,
-        particles=t.number("particles", integer=True, lo=10, default=5000 if kind != "particle" else _MISSING),
-        resample_threshold=t.number("resample_threshold", default=0.5, lo=0, hi=1),
-        roughening=t.number("roughening", default=0.0, lo=0),
-        plan_clusters=t.number("plan_clusters", integer=True, default=2 if kind == "particle" else 1, lo=1, hi=2),
-    )
-    if f.plan_clusters > 1 and kind != "particle":
-        t.fail("plan_clusters", f"needs particles to split (kind = \"particle\"), got kind = \"{kind}\"")
-    t.finish()
     return f
 
 
-def _boolean(t: _Table, key: str, default: bool) -> bool:
-    value = t._get(key, default)
-    if not isinstance(value, bool):
-        t.fail(key, f"expected true or false, got {_describe(value)}")
-    return value
-
-
-def _planner(t: _Table, uav: UavConfig, sensor: Sensor, world: World) -> PlannerConfig:
-    name = t.string("name", choices=PLANNERS)
-    m = t.table("manoeuvres", optional=True) or _Table(t.file, t.path("manoeuvres"), {})
-    positive = dict(lo=0, lo_open=True)
-    manoeuvres = ManoeuvreConfig(
-        step=m.number("step_m", default=uav.n_r * uav.step, **positive),
-        zigzag_length=m.number("zigzag_length_m", default=300.0, **positive),
-        zigzag_width=m.number("zigzag_width_m", default=120.0, **positive),
-        zigzag_legs=m.number("zigzag_legs", default=4, integer=True, lo=1),
-        square_side=m.number("square_side_m", default=150.0, **positive),
-        pentagon_radius=m.number("pentagon_radius_m", default=90.0, **positive),
-        circle_radius=m.number("circle_radius_m", default=80.0, **positive),
-    )
-    m.finish()
-    f = t.table("fixed_sensors", optional=True) or _Table(t.file, t.path("fixed_sensors"), {})
+def _planner(t: _Table, uav: UavConfig, world: World) -> PlannerConfig:
+    region = uav.region.vertices if uav.region is not None else np.array([world.area_lo[:2], world.area_hi[:2]])
+    extent = float(np.min(region.max(0) - region.min(0)))
+    sizes = {name: default_sizes(extent)[spec.key] for name, spec in specs(ManoeuvreConfig)
+             if spec.key in default_sizes(extent)}
+    manoeuvres = _section(t.table("manoeuvres", optional=True, empty=True), ManoeuvreConfig,
+                          {"step": uav.n_r * uav.step, **sizes})
+    f = t.table("fixed_sensors", optional=True, empty=True)
     given = f.has("positions_m")
-    xy = f.array("positions_m", (None, 2), default=DEFAULT_FIXED_SENSORS)
-    _check_fixed_sensors(f, xy, given, world)
-    fixed = FixedSensorsConfig(
-        positions=np.column_stack([xy, np.zeros(len(xy))]),
-        sensor=Sensor(sigma=sensor.sigma, p_detect=f.number("p_detect", default=1.0, lo=0, hi=1),
-                      clutter_rate=f.number("clutter_rate", default=0.0, lo=0)),
-    )
-    f.finish()
-    la = t.table("lookahead", optional=True) or _Table(t.file, t.path("lookahead"), {})
-    lookahead = LookaheadConfig(horizon=la.number("horizon_steps", default=LookaheadConfig.horizon, integer=True,
-                                                  lo=1, hi=50))
-    la.finish()
-    t.finish()
-    return PlannerConfig(name=name, manoeuvres=manoeuvres, fixed_sensors=fixed, lookahead=lookahead)
-
-
-def _check_fixed_sensors(t: _Table, xy: np.ndarray, given: bool, world: World) -> None:
-    """Fixed sensors (on the ground, z = 0) must be in the area and outside obstacles.
-    The defaults fit the paper's 1 km area only, so their message says how to replace them."""
-    pts = np.column_stack([xy, np.zeros(len(xy))])
-    inside_area = np.all((xy >= world.area_lo[:2]) & (xy <= world.area_hi[:2]), axis=1)
-    in_obstacle = world.in_obstacle(pts)
-    bad = np.flatnonzero(~inside_area | in_obstacle)
-    if not len(bad):
-        return
-    k = int(bad[0])
-    if not inside_area[k]:
-        where = f"outside the area {_fmt(world.area_lo[:2])}..{_fmt(world.area_hi[:2])}"
-    else:
-        hit = inside_polytopes(pts[k], world.normals, world.offsets)
-        where = f"inside obstacle '{world.obstacle_names[int(np.argmax(hit))]}'"
+    xy = world.area_lo[:2] + FIXED_FRACTIONS * (world.area_hi[:2] - world.area_lo[:2])
+    fixed = _section(f, FixedSensorsConfig, {"positions": xy})
+    fixed = replace(fixed, positions=np.column_stack([fixed.positions, np.zeros(len(fixed.positions))]))
     if given:
-        t.fail("positions_m", f"fixed sensor {k} at {_fmt(xy[k])} is {where}")
-    defaults = ", ".join(map(_fmt, DEFAULT_FIXED_SENSORS))
-    t.fail("positions_m", f"the default fixed-sensor position {_fmt(xy[k])} (defaults {defaults}, "
-                          f"used when the mission gives none) is {where}: set planner.fixed_sensors.positions_m")
+        problem = fixed_sensor_problem(fixed.positions, world)
+        if problem:
+            f.fail("positions_m", problem)
+    lookahead = _section(t.table("lookahead", optional=True, empty=True), LookaheadConfig)
+    return _section(t, PlannerConfig, manoeuvres=manoeuvres, fixed_sensors=fixed, lookahead=lookahead)
 
 
 def _check_goals_reachable(path: Path, world: World, dynamics: Dynamics, guidance: GuidanceConfig,

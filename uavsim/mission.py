@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .declare import setting
+
 if TYPE_CHECKING:  # annotations only: the settings' modules import MissionError from here
     from .belief import FilterConfig
     from .guidance.model import GuidanceConfig
@@ -52,11 +54,13 @@ class Mission:
     guidance: GuidanceConfig
     filter: FilterConfig
     planner: PlannerConfig
-    steps: int
-    trials: int
-    seed: int
-    truth: str
-    description: str = ""
+    steps: int = setting("steps", 50, lo=1, hi=100_000, doc="time steps per trial")
+    trials: int = setting("trials", 10, lo=1, hi=1_000_000, doc="Monte-Carlo trials (`uavsim run --trials`)")
+    seed: int = setting("seed", 0, lo=0, hi=2**63 - 1, doc="the campaign's seed; trial k is seeded from "
+                                                           "SeedSequence(seed).spawn(trials)[k]")
+    truth: str = setting("truth", "planned", choices=TRUTH_MODES,
+                         doc="planned: the truth follows its noise-free first plan; stochastic: re-planned, noisy")
+    description: str = setting("description", "", doc="one line shown by `uavsim validate`")
 
     @property
     def goals(self) -> np.ndarray:

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .declare import degrees, setting
+
 
 def wrap_angle(angle: np.ndarray) -> np.ndarray:
     """Wrap angles to ``(-pi, pi]`` (``-pi`` maps to ``+pi``)."""
@@ -52,9 +54,11 @@ class Sensor:
     sigma : bearing noise std (rad); p_detect : p_D; clutter_rate : Lambda (per scan, per channel).
     """
 
-    sigma: float
-    p_detect: float
-    clutter_rate: float
+    sigma: float = setting("sigma_deg", 1.0, unit="deg", lo=0.001, hi=45, **degrees,
+                           doc="bearing noise standard deviation sigma (Eq. 4)")
+    p_detect: float = setting("p_detect", 0.95, lo=0, hi=1, doc="p_D, that a scan holds the target's bearing")
+    clutter_rate: float = setting("clutter_rate", 1.0, unit="per scan", lo=0, hi=100,
+                                  doc="Lambda, mean false alarms per scan on each target's channel (Poisson)")
 
 
 @dataclass(frozen=True, eq=False)

@@ -21,6 +21,7 @@ from functools import cached_property
 
 import numpy as np
 
+from .declare import Spec, setting
 from .estimators.plkf import predict
 
 HORIZONTAL = [0, 1, 3, 4]  # [x, y, vx, vy] of the state: the ground targets' free components
@@ -49,10 +50,12 @@ class Dynamics:
     q : (6, 6) process-noise covariance Q.
     """
 
-    dt: float
-    friction: float
-    mass: float
-    q: np.ndarray
+    dt: float = setting("dt_s", 1.0, unit="s", lo=0.001, hi=3600, doc="sampling interval dt (Eq. 2)")
+    friction: float = setting("friction", 0.2, lo=0, hi=1, doc="epsilon: a step keeps 1 - epsilon of the velocity")
+    mass: float = setting("mass_kg", 1300.0, unit="kg", lo=1, hi=1e6, doc="target mass m (Eq. 2)")
+    q: np.ndarray = setting("process_noise_cov_si", [30.0, 30.0, 1e-10, 3.0, 3.0, 1e-10], kind="covariance",
+                            unit="m^2, m^2/s^2", lo=0, hi=1e6, shape=(6,),
+                            doc="process noise Q over [x, y, z, vx, vy, vz]: 6 variances or a 6x6 matrix")
 
     @cached_property
     def a(self) -> np.ndarray:
@@ -115,3 +118,16 @@ class Target:
     mean0: np.ndarray
     cov0: np.ndarray
     goal: int
+
+
+# A [[targets]] table: its keys become Target's fields (position and velocity the mean).
+TARGET_KEYS = (
+    Spec("name", "string", "the target's label, unique and not empty"),
+    Spec("position_m", "array", "start position [x, y, z] (the prior mean's), inside the area, outside obstacles",
+         unit="m", shape=(3,)),
+    Spec("velocity_mps", "array", "start velocity [vx, vy, vz] (the prior mean's)", unit="m/s",
+         default=[0.0, 0.0, 0.0], shape=(3,), lo=-340, hi=340),
+    Spec("cov0_si", "covariance", "prior covariance Sigma_0 over [x, y, z, vx, vy, vz]: 6 variances or a 6x6 matrix",
+         unit="m^2, m^2/s^2", default=[200.0, 200.0, 1e-10, 20.0, 20.0, 1e-10], shape=(6,), lo=0, hi=1e8),
+    Spec("goal", "string", "the name of the world's goal region the target heads for"),
+)

@@ -33,62 +33,51 @@ The dynamics, sensor, UAV grid, guidance and filter settings are the paper missi
 
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from .belief import FilterConfig
+from .declare import si_array, specs
+from .guidance.model import GuidanceConfig
 from .routes import GoalField
+from .sensing import Sensor
+from .targets import TARGET_KEYS, Dynamics
+from .uav import FixedSensorsConfig, ManoeuvreConfig, PlannerConfig, UavConfig
+from .uav.manoeuvres import default_sizes
 from .world import GROUND_BAND_M, Region2D, cuboid_halfspaces, free_space, ground_footprints, inside_polytopes
+from .writer import mission_text, value_text
 
 REACH_FRACTION = 0.6
+TARGET_COV0 = next(spec for spec in TARGET_KEYS if spec.key == "cov0_si")
 MAX_OBSTACLES, MAX_TARGETS = 15, 8
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Settings:
-    """The mission numbers written into every generated mission: the paper's
-    (004 Sec. VI-A, as in ``missions/paper.toml``), except ``trials`` (10, not 100: a
-    generated world is for a first look; ``--trials`` sets more) and, for a city, the
-    first plans' ``time_limit_s`` (:data:`CITY_TIME_LIMIT_S`)."""
+    """The settings written into every generated mission: the declared defaults (the
+    paper's, 004 Sec. VI-A; :mod:`uavsim.declare`), except ``trials`` (10: a generated
+    world is for a first look; ``--trials`` sets more) and, for a city, the first plans'
+    ``time_limit_s`` (:data:`CITY_TIME_LIMIT_S`).  A world's own UAV start, altitude,
+    region, manoeuvre sizes and fixed sensors are drawn per world."""
 
-    dt_s: float = 1.0
-    friction: float = 0.2
-    mass_kg: float = 1300.0
-    process_noise_cov_si: tuple[float, ...] = (30.0, 30.0, 1e-10, 3.0, 3.0, 1e-10)
-    sigma_deg: float = 1.0
-    p_detect: float = 0.95
-    clutter_rate: float = 1.0
-    step_m: float = 5.0
-    n_theta: int = 15
-    n_r: int = 4
-    horizon: int = 50
-    horizon_mode: str = "shrinking"
-    terminal: str = "soft"
-    rho: float = 0.01
-    force_max_n: float = 6000.0
-    speed_max_mps: float = 16.0
-    speed_polygon_sides: int = 16
-    clearance_m: float = 1.0
-    gap: float = 1e-4
-    time_limit_s: float = 10.0
-    replan_budget_s: float = 1.0
-    particles: int = 5000
-    resample_threshold: float = 0.5
-    roughening: float = 0.0
-    plan_clusters: int = 2  # the paper's missions say 1 (Sec. V); see uavsim.sim
-    cov0_si: tuple[float, ...] = (200.0, 200.0, 1e-10, 20.0, 20.0, 1e-10)
+    dynamics: Dynamics = field(default_factory=Dynamics)
+    sensor: Sensor = field(default_factory=Sensor)
+    guidance: GuidanceConfig = field(default_factory=GuidanceConfig)
+    filter: FilterConfig = field(default_factory=FilterConfig)
+    uav: UavConfig = field(default_factory=UavConfig)
+    cov0: np.ndarray = field(default_factory=lambda: si_array(TARGET_COV0, TARGET_COV0.default))
     trials: int = 10
 
     @property
     def margin(self) -> float:
         """delta = v_max dt / 2 + clearance, the guidance model's per-axis inflation."""
-        return self.speed_max_mps * self.dt_s / 2.0 + self.clearance_m
+        return self.guidance.speed_max * self.dynamics.dt / 2.0 + self.guidance.clearance
 
     @property
     def reach(self) -> float:
         """Longest free path allowed from a start to its goal (m)."""
-        return REACH_FRACTION * self.horizon * self.dt_s * self.speed_max_mps
+        return REACH_FRACTION * self.guidance.horizon * self.dynamics.dt * self.guidance.speed_max
 
 
 @dataclass(frozen=True, eq=False)
@@ -256,7 +245,7 @@ def _target(rng, goal, behind, field: GoalField, ground, area_lo, area_hi, goals
         r = rng.uniform(0.25, 0.95, 32) * s.reach
         p0 = np.round(goal[0] + r[:, None] * np.column_stack([np.cos(ang), np.sin(ang)]))
         v0 = np.where(rng.random(32)[:, None] < 0.5, 0.0, np.round(rng.uniform(-4, 4, (32, 2)), 1))
-        pts = np.stack([p0, p0 + v0 * s.dt_s], axis=1)  # (32, 2, 2)
+        pts = np.stack([p0, p0 + v0 * s.dynamics.dt], axis=1)  # (32, 2, 2)
         ok = np.all((pts >= area_lo[:2] + s.margin) & (pts <= area_hi[:2] - s.margin), axis=(1, 2))
         ok &= np.all(_distance_to_boxes(pts, lo, hi) >= s.margin, axis=1)
         ok &= ~np.any(np.all((pts[:, :, None] >= goals_lo) & (pts[:, :, None] <= goals_hi), axis=-1), axis=(1, 2))
@@ -292,7 +281,7 @@ def generate(rng: np.random.Generator | int, obstacles: int, targets: int | None
     if kind not in KINDS:
         raise ValueError(f"unknown world kind {kind!r}; choose from {', '.join(KINDS)}")
     if settings is None:
-        settings = Settings(time_limit_s=CITY_TIME_LIMIT_S) if kind == "city" else Settings()
+        settings = Settings(guidance=GuidanceConfig(time_limit=CITY_TIME_LIMIT_S)) if kind == "city" else Settings()
     most_obstacles, most_targets = KINDS[kind]
     seed = rng if isinstance(rng, (int, np.integer)) else None
     rng = np.random.default_rng(rng)
@@ -406,11 +395,8 @@ def _uav(rng, obs_lo, obs_hi, area_lo, area_hi) -> dict | None:
         start = np.r_[p, altitude]
         in_region = region is None or bool(_region2d(region).contains(p))
         if in_region and not _inside_boxes(start, obs_lo, obs_hi):
-            e = float(np.min(r_hi - r_lo))
-            sizes = {"zigzag_length_m": 0.3 * e, "zigzag_width_m": 0.12 * e, "square_side_m": 0.15 * e,
-                     "pentagon_radius_m": 0.09 * e, "circle_radius_m": 0.08 * e}
             return dict(altitude=altitude, uav_start=start, region=region,
-                        manoeuvres={k: float(np.round(v / 5) * 5) for k, v in sizes.items()})
+                        manoeuvres=default_sizes(float(np.min(r_hi - r_lo))))
     return None
 
 
@@ -453,70 +439,39 @@ def _fixed_sensors(rng, obs_lo, obs_hi, area_lo, area_hi) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- TOML
-def _num(x) -> str:
-    return repr(float(x))
-
-
-def _str(text: str) -> str:
-    return json.dumps(text)  # a JSON string is a TOML basic string
-
-
-def _vec(v) -> str:
-    return "[" + ", ".join(_num(x) for x in np.asarray(v).ravel()) + "]"
-
-
 def world_toml(g: Generated, command: str = "") -> str:
     """The world file: area, obstacles, goal regions."""
     lines = [f"# Generated world{f' ({command})' if command else ''}.",
              f"# Obstacles are inflated by {g.settings.margin:g} m for ground targets "
              "(speed_max * dt / 2 + clearance).",
-             f"name = {_str(g.name)}", "", "[area]", f"min_m = {_vec(g.area_lo)}", f"max_m = {_vec(g.area_hi)}"]
+             f"name = {value_text(g.name)}", "", "[area]", f"min_m = {value_text(g.area_lo)}",
+             f"max_m = {value_text(g.area_hi)}"]
     for name, lo, hi in zip(g.obstacle_names, g.obstacle_lo, g.obstacle_hi):
-        lines += ["", "[[obstacles]]", f'name = "{name}"', f"min_m = {_vec(lo)}", f"max_m = {_vec(hi)}"]
+        lines += ["", "[[obstacles]]", f'name = "{name}"', f"min_m = {value_text(lo)}", f"max_m = {value_text(hi)}"]
     for name, c, s in zip(g.goal_names, g.goal_centres, g.goal_sizes):
-        lines += ["", "[[goals]]", f'name = "{name}"', f"center_m = {_vec(c)}", f"size_m = {_vec(s)}"]
+        lines += ["", "[[goals]]", f'name = "{name}"', f"center_m = {value_text(c)}", f"size_m = {value_text(s)}"]
     return "\n".join(lines) + "\n"
 
 
 def mission_toml(g: Generated, world_ref: str, command: str = "") -> str:
-    """The mission file; ``world_ref`` is the world's path relative to the mission."""
+    """The mission file (:func:`uavsim.writer.mission_text`); ``world_ref`` is the world's
+    path relative to the mission."""
     s = g.settings
-    head = [f"# Generated mission{f' ({command})' if command else ''}.",
-            "# Dynamics, sensor, UAV grid, guidance and filter: the paper mission's (004 Sec. VI-A).",
-            f"# Every goal is within {REACH_FRACTION:g} x T dt v_max = {s.reach:g} m of free path from its targets.",
-            f'description = "generated: {len(g.obstacle_names)} obstacles, {len(g.target_goals)} targets"',
-            f"world = {_str(world_ref)}", f"steps = {s.horizon}", f"trials = {s.trials}",
-            f"seed = {g.seed if g.seed is not None else 0}", 'truth = "planned"']
-    return "\n".join(head + _mission_tables(g)) + "\n"
-
-
-def _mission_tables(g: Generated) -> list[str]:
-    s = g.settings
-    lines = ["", "[dynamics]", f"dt_s = {_num(s.dt_s)}", f"friction = {_num(s.friction)}",
-             f"mass_kg = {_num(s.mass_kg)}", f"process_noise_cov_si = {_vec(s.process_noise_cov_si)}",
-             "", "[sensor]", f"sigma_deg = {_num(s.sigma_deg)}", f"p_detect = {_num(s.p_detect)}",
-             f"clutter_rate = {_num(s.clutter_rate)}",
-             "", "[uav]", f"start_m = {_vec(g.uav_start)}", "random_start = true", f"step_m = {_num(s.step_m)}",
-             f"n_theta = {s.n_theta}", f"n_r = {s.n_r}", f"altitude_m = {_num(g.altitude)}"]
-    if g.region is not None and g.region[0] == "box":
-        lines += ["", "[uav.operating_region]", f"min_m = {_vec(g.region[1])}", f"max_m = {_vec(g.region[2])}"]
-    elif g.region is not None:
-        verts = ", ".join(_vec(v) for v in g.region[1])
-        lines += ["", "[uav.operating_region]", f"vertices_m = [{verts}]"]
-    lines += ["", "[guidance]", f"horizon = {s.horizon}", f'horizon_mode = "{s.horizon_mode}"',
-              f'terminal = "{s.terminal}"', f"rho = {_num(s.rho)}",
-              f"force_max_n = {_num(s.force_max_n)}", f"speed_max_mps = {_num(s.speed_max_mps)}",
-              f"speed_polygon_sides = {s.speed_polygon_sides}", f"clearance_m = {_num(s.clearance_m)}",
-              f"gap = {_num(s.gap)}", f"time_limit_s = {_num(s.time_limit_s)}",
-              f"replan_budget_s = {_num(s.replan_budget_s)}",
-              "", "[filter]", f"particles = {s.particles}", f"resample_threshold = {_num(s.resample_threshold)}",
-              f"roughening = {_num(s.roughening)}", f"plan_clusters = {s.plan_clusters}",
-              "", "[planner]", 'name = "optimized"', "", "[planner.manoeuvres]"]
-    lines += [f"{k} = {_num(v)}" for k, v in g.manoeuvres.items()]
-    lines += ["", "[planner.fixed_sensors]", f"positions_m = [{', '.join(_vec(p) for p in g.fixed_sensors)}]"]
-    for i, (p, v, goal, length) in enumerate(zip(g.target_positions, g.target_velocities, g.target_goals,
-                                                 g.route_lengths)):
-        lines += ["", "[[targets]]", f'name = "T{i + 1}"', f"position_m = {_vec(p)}", f"velocity_mps = {_vec(v)}",
-                  f"cov0_si = {_vec(s.cov0_si)}", f'goal = "{g.goal_names[goal]}"',
-                  f"# free-space shortest path to the goal's centre: {length:.0f} m"]
-    return lines
+    region = None
+    if g.region is not None:
+        region = Region2D.box(g.region[1], g.region[2]) if g.region[0] == "box" else Region2D.from_vertices(g.region[1])
+    uav = replace(s.uav, start=g.uav_start, altitude=g.altitude, region=region, random_start=True)
+    sizes = {name: g.manoeuvres[spec.key] for name, spec in specs(ManoeuvreConfig) if spec.key in g.manoeuvres}
+    planner = PlannerConfig(manoeuvres=ManoeuvreConfig(step=uav.n_r * uav.step, **sizes),
+                            fixed_sensors=FixedSensorsConfig(positions=np.column_stack([g.fixed_sensors,
+                                                                                        np.zeros(len(g.fixed_sensors))])))
+    top = dict(description=f"generated: {len(g.obstacle_names)} obstacles, {len(g.target_goals)} targets",
+               steps=s.guidance.horizon, trials=s.trials, seed=g.seed if g.seed is not None else 0, truth="planned")
+    targets = [(f"T{i + 1}", np.r_[p, v], s.cov0, g.goal_names[goal])
+               for i, (p, v, goal) in enumerate(zip(g.target_positions, g.target_velocities, g.target_goals))]
+    comments = (f"Generated mission{f' ({command})' if command else ''}.",
+                "Every setting is the declared default (the paper mission's, 004 Sec. VI-A) but the world's own.",
+                f"Every goal is within {REACH_FRACTION:g} x T dt v_max = {s.reach:g} m of free path from its targets.")
+    lengths = tuple(f"free-space shortest path to the goal's centre: {length:.0f} m" for length in g.route_lengths)
+    return mission_text(world_ref, top, s.dynamics, s.sensor, uav, s.guidance, s.filter, planner, targets,
+                        comments, lengths)

@@ -18,6 +18,7 @@ from typing import Protocol
 
 import numpy as np
 
+from ..declare import SettingError, setting
 from ..estimators.plkf import FILTERS
 from ..sensing import Scan, Sensor
 from ..targets import Dynamics
@@ -33,15 +34,27 @@ class FilterConfig:
     pseudo-linear Kalman filters (clutter-free sensors only); particle settings.
 
     ``plan_clusters``: 1, every particle moves by the plan from the posterior mean (004
-    Sec. V; the paper's missions say so); 2 (a mission file's default for particles), the
-    cloud is split in two (:func:`.particle.halves`) and each half moves by the plan from
-    its own mean (particle filters only; see :mod:`uavsim.sim`)."""
+    Sec. V; the paper's missions say so); 2 (the default for particles), the cloud is split
+    in two (:func:`.particle.halves`) and each half moves by the plan from its own mean
+    (particle filters only; see :mod:`uavsim.sim`)."""
 
-    particles: int
-    resample_threshold: float
-    roughening: float
-    kind: str = "particle"
-    plan_clusters: int = 1
+    kind: str = setting("kind", "particle", choices=KINDS,
+                        doc="the estimator: particle filters (004 Sec. V-A) or a pseudo-linear Kalman filter of 002 "
+                            "(clutter-free sensors only)")
+    particles: int = setting("particles", 5000, lo=10, hi=1_000_000, doc="particles per target (particle filter)")
+    resample_threshold: float = setting("resample_threshold", 0.5, lo=0, hi=1,
+                                        doc="resample when the effective sample size < threshold x particles")
+    roughening: float = setting("roughening", 0.0, lo=0, hi=2,
+                                doc="roughening factor K after resampling: jitter of K x spread x N^(-1/d)")
+    plan_clusters: int = setting("plan_clusters", kind="integer", lo=1, hi=2, derived="2 for kind = particle, else 1",
+                                 doc="plans per target: 1 from the mean, 2 one per half of the particle cloud")
+
+    def __post_init__(self):
+        if self.plan_clusters is None:
+            object.__setattr__(self, "plan_clusters", 2 if self.kind == "particle" else 1)
+        if self.plan_clusters > 1 and self.kind != "particle":
+            raise SettingError("plan_clusters", f"needs particles to split (kind = \"particle\"), got kind = "
+                                                f"\"{self.kind}\"")
 
 
 class Belief(Protocol):

@@ -49,6 +49,7 @@ from dataclasses import dataclass
 import cvxpy as cp
 import numpy as np
 
+from ..declare import setting
 from ..targets import Dynamics
 from ..world import World, ground_footprints
 
@@ -71,17 +72,25 @@ class GuidanceConfig:
     also end inside the goal region; see :meth:`uavsim.guidance.Guidance.plan`).
     """
 
-    horizon: int
-    rho: float
-    force_max: float
-    speed_max: float
-    speed_sides: int
-    clearance: float
-    gap: float
-    time_limit: float
-    horizon_mode: str = "receding"
-    replan_budget: float = 1.0
-    terminal: str = "soft"
+    horizon: int = setting("horizon", 50, lo=2, hi=300, doc="T, steps planned ahead (Eq. 7)")
+    rho: float = setting("rho", 0.01, unit="m^2/N^2", lo=0, hi=1e6, doc="weight of the force increments in Eq. (7)")
+    force_max: float = setting("force_max_n", 6000.0, unit="N", lo=1, hi=1e7,
+                               doc="|u_x|, |u_y| limit (Eq. 8e); force_max_n / mass_kg at most 100 m/s^2")
+    speed_max: float = setting("speed_max_mps", 16.0, unit="m/s", lo=0.1, hi=340,
+                               doc="ground speed limit (Eq. 8f), enforced as an inscribed polygon")
+    speed_sides: int = setting("speed_polygon_sides", 16, lo=4, hi=64, doc="sides of the inscribed speed polygon")
+    clearance: float = setting("clearance_m", 1.0, unit="m", lo=0, hi=1000,
+                               doc="obstacle margin on top of speed_max_mps x dt_s / 2")
+    gap: float = setting("gap", 1e-4, lo=1e-9, hi=0.5, doc="certified relative optimality gap of a plan")
+    time_limit: float = setting("time_limit_s", 10.0, unit="nominal s", lo=0.01, hi=86400,
+                                doc="budget of a first plan (counted in QPs, machine-independent)")
+    horizon_mode: str = setting("horizon_mode", "shrinking", choices=("receding", "shrinking"),
+                                doc="receding: always T steps ahead; shrinking: to the first plan's end, "
+                                    "then T more")
+    replan_budget: float = setting("replan_budget_s", 1.0, unit="nominal s", lo=0.001, hi=3600,
+                                   doc="budget of a re-plan from the previous plan")
+    terminal: str = setting("terminal", "soft", choices=("soft", "hard"),
+                            doc="soft: P1 as published; hard: the plan must also end inside the goal region")
 
 
 @dataclass(frozen=True, eq=False)

@@ -23,6 +23,7 @@ from typing import Protocol
 
 import numpy as np
 
+from ..declare import setting
 from ..mission import Mission
 from ..sensing import Sensor
 from .fixed import FixedSensors, FixedSensorsConfig, NoSensor
@@ -45,9 +46,10 @@ __all__ = ["POLICIES", "PLANNERS", "BASELINE", "MANOEUVRES", "Policy", "PlannerC
 class PlannerConfig:
     """Which UAV policy runs (Sec. V-B, VI-B) and the settings of the alternatives."""
 
-    name: str
-    manoeuvres: ManoeuvreConfig
-    fixed_sensors: FixedSensorsConfig
+    name: str = setting("name", "optimized", choices=PLANNERS,
+                        doc="the UAV policy a run uses (`uavsim run --planner` picks another)")
+    manoeuvres: ManoeuvreConfig = ManoeuvreConfig()
+    fixed_sensors: FixedSensorsConfig = FixedSensorsConfig()
     lookahead: LookaheadConfig = LookaheadConfig()
 
 

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..belief.traces import decide
+from ..declare import setting
 from ..mission import Mission, MissionError
 from ..world import Region2D, World
 
@@ -37,13 +38,19 @@ class UavConfig:
         altitude h, outside obstacles (Sec. VI-B); otherwise every trial starts at ``start``.
     """
 
-    start: np.ndarray
-    step: float
-    n_theta: int
-    n_r: int
-    altitude: float
-    region: Region2D | None
-    random_start: bool = False
+    region: Region2D | None = None  # read by the config module from [uav.operating_region]
+    start: np.ndarray = setting("start_m", kind="array", unit="m", shape=(3,),
+                                derived="(0.15, 0.2) of the operating region (or area), at altitude_m",
+                                doc="the UAV's start when random_start is false")
+    step: float = setting("step_m", 5.0, unit="m", lo=0.01, hi=1000,
+                          doc="Delta_r, the grid's ring spacing (Eq. 3)")
+    n_theta: int = setting("n_theta", 15, lo=1, hi=360, doc="N_theta, move directions (Eq. 3)")
+    n_r: int = setting("n_r", 4, lo=1, hi=100, doc="N_r, rings of moves (Eq. 3)")
+    altitude: float = setting("altitude_m", kind="number", unit="m", lo=0.1, hi=1e5,
+                              derived="40 m, or half the area's height if that is lower",
+                              doc="h, the UAV's flight altitude, within the area's height")
+    random_start: bool = setting("random_start", True,
+                                 doc="each trial draws the start uniformly in the region at altitude_m (Sec. VI-B)")
 
 
 def move_offsets(step: float, n_theta: int, n_r: int) -> np.ndarray:

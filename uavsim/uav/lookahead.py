@@ -45,6 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..belief.traces import gaussian_traces
+from ..declare import setting
 from ..mission import Mission
 from ..pcrlb import information_reduction_factor, pcrlb_step, scan_information
 from ..targets import HORIZONTAL
@@ -58,7 +59,8 @@ class LookaheadConfig:
     """``horizon``: steps scored per first move: the move, then ``horizon - 1`` steps of
     the myopic rule (1 = the first move only, the ``optimized`` policy)."""
 
-    horizon: int = 6
+    horizon: int = setting("horizon_steps", 6, lo=1, hi=50,
+                           doc="steps scored per first move: the move, then the myopic rule (lookahead planner)")
 
 
 class Lookahead(GridOptimizer):

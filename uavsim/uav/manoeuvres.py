@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..declare import setting
 from ..mission import Mission, MissionError
 from ..world import Region2D, World
 from .grid import OneUav, UavConfig
@@ -19,18 +20,36 @@ from .grid import OneUav, UavConfig
 MANOEUVRES = ("zigzag", "square", "pentagon", "circle")
 
 
+# A manoeuvre's size as a fraction of the operating region's (or area's) smaller side,
+# rounded to 5 m: on the paper's 1 km area 300, 120, 150, 90, 80 m.
+SIZE_FRACTIONS = {"zigzag_length_m": 0.3, "zigzag_width_m": 0.12, "square_side_m": 0.15,
+                  "pentagon_radius_m": 0.09, "circle_radius_m": 0.08}
+
+
+def default_sizes(extent: float) -> dict[str, float]:
+    """The manoeuvres' sizes (file keys, m) for a region whose smaller side is ``extent`` m."""
+    return {k: max(5.0, float(np.round(f * extent / 5) * 5)) for k, f in SIZE_FRACTIONS.items()}
+
+
+def _size(key: str, doc: str):
+    return setting(key, kind="number", unit="m", lo=1, hi=1e5, doc=doc,
+                   derived=f"{SIZE_FRACTIONS[key]:g} of the operating region's (area's) smaller side, to 5 m")
+
+
 @dataclass(frozen=True)
 class ManoeuvreConfig:
     """Pre-computed manoeuvres of Sec. VI-B (Fig. 3).  The paper publishes no sizes;
     the mission chooses them.  ``step`` is the distance flown per time step."""
 
-    step: float
-    zigzag_length: float
-    zigzag_width: float
-    zigzag_legs: int
-    square_side: float
-    pentagon_radius: float
-    circle_radius: float
+    step: float = setting("step_m", kind="number", unit="m", lo=0.01, hi=1000,
+                          derived="uav.n_r x uav.step_m", doc="distance flown per time step")
+    zigzag_length: float = _size("zigzag_length_m", "length of the zig-zag")
+    zigzag_width: float = _size("zigzag_width_m", "width of the zig-zag")
+    zigzag_legs: int = setting("zigzag_legs", 4, lo=1, hi=100, doc="diagonal legs of the zig-zag")
+    square_side: float = _size("square_side_m", "side of the square")
+    pentagon_radius: float = _size("pentagon_radius_m", "circumradius of the pentagon")
+    circle_radius: float = _size("circle_radius_m", "radius of the circle")
+
 
 
 def manoeuvre_loop(name: str, cfg: ManoeuvreConfig) -> np.ndarray:

@@ -1,0 +1,135 @@
+"""Every setting declared once: the reader, the writer, the generator, the dataclasses and
+the reference page agree, and a mission written as a user writes it (tables left out, a
+world of another size) runs as it is."""
+
+from dataclasses import fields, is_dataclass
+
+import numpy as np
+import pytest
+
+from uavsim.campaign import run_campaign
+from uavsim.config import load_mission
+from uavsim.declare import si_array, specs
+from uavsim.mission import MissionError
+from uavsim.worldgen import Settings, generate, mission_toml, world_toml
+from uavsim.writer import reference, sections, to_toml
+
+from .conftest import PAPER, ROOT
+
+MISSIONS = sorted((ROOT / "missions").glob("*.toml"))
+
+
+def same(a, b, path="mission") -> list[str]:
+    """Where two settings objects differ (field by field; arrays exactly)."""
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        return [] if np.array_equal(a, b) else [path]
+    if is_dataclass(a) and type(a) is type(b):
+        return [d for f in fields(a) if f.name not in ("path", "world")
+                for d in same(getattr(a, f.name), getattr(b, f.name), f"{path}.{f.name}")]
+    if isinstance(a, tuple) and isinstance(b, tuple) and len(a) == len(b):
+        return [d for i, (x, y) in enumerate(zip(a, b)) for d in same(x, y, f"{path}[{i}]")]
+    if hasattr(a, "vertices") and hasattr(b, "vertices"):
+        return same(a.vertices, b.vertices, path)
+    return [] if a == b else [f"{path}: {a!r} != {b!r}"]
+
+
+def round_trip(m, folder):
+    path = folder / f"rt-{m.path.name}"
+    path.write_text(to_toml(m, path))
+    return load_mission(path)
+
+
+def test_the_reference_page_is_current():
+    """docs/settings.md is what the declarations say (regenerate: python -m uavsim.writer)."""
+    assert (ROOT / "docs" / "settings.md").read_text() == reference()
+
+
+@pytest.mark.parametrize("path", MISSIONS, ids=[p.stem for p in MISSIONS])
+def test_shipped_missions_round_trip(tmp_path, path):
+    m = load_mission(path)
+    assert same(m, round_trip(m, tmp_path)) == []
+    assert m.world_path == round_trip(m, tmp_path).world_path
+
+
+@pytest.mark.parametrize("kind, seeds", [("open", range(6)), ("city", range(3))])
+def test_generated_missions_round_trip(tmp_path, kind, seeds):
+    for seed in seeds:
+        g = generate(seed, 6 if kind == "open" else 30, 3, kind=kind)
+        (tmp_path / "w.toml").write_text(world_toml(g))
+        (tmp_path / "m.toml").write_text(mission_toml(g, "w.toml"))
+        m = load_mission(tmp_path / "m.toml")
+        assert same(m, round_trip(m, tmp_path)) == [], seed
+
+
+def test_one_default_per_setting(tmp_path):
+    """For every declared field: the dataclass's own default is the declaration's (in SI),
+    the generator writes it (but for ``trials`` and a city's ``time_limit_s``, which the
+    generator documents), and the reader gives it for a mission that leaves the table out."""
+    minimal = load_mission(_minimal(ROOT / "worlds" / "paper.toml", tmp_path))
+    generated = Settings()
+    for section, obj, read in [("dynamics", generated.dynamics, minimal.dynamics),
+                               ("sensor", generated.sensor, minimal.sensor),
+                               ("guidance", generated.guidance, minimal.guidance),
+                               ("filter", generated.filter, minimal.filter)]:
+        cls = type(obj)
+        for name, spec in specs(cls):
+            want = spec.to_si(spec.default) if spec.to_si else spec.default
+            if spec.kind in ("array", "covariance"):
+                want = si_array(spec, spec.default)
+            if spec.derived:
+                continue
+            assert same(getattr(cls(), name), want) == [], (section, name)
+            assert same(getattr(obj, name), want) == [], (section, name)
+            assert same(getattr(read, name), want) == [], (section, name)
+    assert minimal.filter.plan_clusters == 2 and minimal.planner.name == "optimized"
+    assert [s.key for s in dict(sections())["[[targets]]"]] == ["name", "position_m", "velocity_mps", "cov0_si",
+                                                                "goal"]
+
+
+def _minimal(world, folder, name="minimal.toml", target="position_m = [281.0, 925.0, 0.0]"):
+    path = folder / name
+    path.write_text(f'world = "{world}"\n\n[[targets]]\nname = "T1"\n{target}\ngoal = "goal"\n')
+    return path
+
+
+@pytest.fixture
+def town(tmp_path):
+    """A user's world of another size (300 x 200 m, 40 m high), offset from the origin,
+    with a building where the paper's fixed sensor and UAV start would be."""
+    (tmp_path / "town.toml").write_text(
+        'name = "town"\n[area]\nmin_m = [1000.0, -500.0, 0.0]\nmax_m = [1300.0, -300.0, 40.0]\n\n'
+        '[[obstacles]]\nname = "hall"\nmin_m = [1130.0, -340.0, 0.0]\nmax_m = [1170.0, -310.0, 20.0]\n\n'
+        '[[goals]]\nname = "goal"\ncenter_m = [1250.0, -450.0]\nsize_m = [30.0, 30.0]\n')
+    return _minimal(tmp_path / "town.toml", tmp_path, target="position_m = [1050.0, -350.0, 0.0]")
+
+
+def test_a_minimal_mission_in_a_world_of_another_size_runs_every_planner(town):
+    """World + one target, nothing else: the geometry-dependent defaults follow the area
+    (altitude half its 40 m height, the UAV start and fixed sensors at fractions of it,
+    manoeuvres sized to it) and every planner but the fixed sensors runs a step; the fixed
+    sensors' default (0.5, 0.9) of the area falls in the hall and is refused by name."""
+    m = load_mission(town, {"steps": 2, "trials": 1, "filter.particles": 200})
+    assert m.uav.altitude == 20.0
+    np.testing.assert_array_equal(m.uav.start, [1045.0, -460.0, 20.0])
+    np.testing.assert_array_equal(m.planner.fixed_sensors.positions[2], [1150.0, -320.0, 0.0])
+    assert m.planner.manoeuvres.zigzag_length == 60.0 and m.planner.manoeuvres.circle_radius == 15.0
+    for planner in ("optimized", "lookahead", "zigzag", "circle", "baseline"):
+        s = run_campaign(m, planner)
+        assert np.all(np.isfinite(s["rmse"])), planner
+    with pytest.raises(MissionError, match="planner.fixed_sensors.positions_m: fixed sensor 2 at .* inside "
+                                           "obstacle 'hall'; the mission gives no positions"):
+        run_campaign(m, "fixed-sensors")
+
+
+def test_numpy_values_and_tuples_are_accepted_as_overrides():
+    m = load_mission(PAPER, {"steps": np.int64(7), "sensor.sigma_deg": np.float32(2.0),
+                             "uav.start_m": np.array([100.0, 100.0, 40.0]), "targets[0].velocity_mps": (1, 0, 0)})
+    assert m.steps == 7 and m.sensor.sigma == pytest.approx(np.radians(2.0))
+    np.testing.assert_array_equal(m.uav.start, [100.0, 100.0, 40.0])
+    np.testing.assert_array_equal(m.targets[0].mean0[3:], [1.0, 0.0, 0.0])
+
+
+@pytest.mark.parametrize("section", ["sensor", "dynamics", "planner", "guidance", "filter", "uav"])
+def test_a_section_set_to_none_is_refused(section):
+    with pytest.raises(MissionError, match=f"{section}: expected a table, got None"):
+        load_mission(PAPER, {section: None})
