@@ -104,4 +104,4 @@ def test_sweep_writes_table_and_plot(tmp_path, capsys):
     assert (out / "sweep.png").read_bytes()[:4] == b"\x89PNG"
     assert json.loads((out / "sensor.clutter_rate=2" / "summary.json").read_text())["clutter_rate"] == 2.0
     assert main(["sweep", mission, "--set", "sensor.clutter_rate=1,-1", "--out", str(out / "bad")]) == 2
-    assert "sensor.clutter_rate: must be >= 0, got -1" in capsys.readouterr().err
+    assert "sensor.clutter_rate: must be in [0, 100] per scan, got -1" in capsys.readouterr().err

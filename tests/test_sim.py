@@ -138,8 +138,8 @@ def test_compare_writes_json_and_png(tmp_path):
 
 @pytest.mark.parametrize("argv, fragment", [
     (["compare", "M", "--planners", "optimized,spiral", "--out", "x"], "unknown spiral"),
-    (["run", "M", "--trials", "0"], "trials: must be >= 1, got 0 (an override, not the file's value)"),
-    (["run", "M", "--clutter-rate", "-1"], "sensor.clutter_rate: must be >= 0, got -1.0"),
+    (["run", "M", "--trials", "0"], "trials: must be in [1, 1000000], got 0 (an override, not the file's value)"),
+    (["run", "M", "--clutter-rate", "-1"], "sensor.clutter_rate: must be in [0, 100] per scan, got -1"),
 ])
 def test_bad_command_lines_exit_2(tmp_path, capsys, argv, fragment):
     argv = [str(write_small_mission(tmp_path)) if a == "M" else a for a in argv]

@@ -30,9 +30,12 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import os
+import signal
+import threading
 import time
 import zipfile
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, as_completed, wait
+from concurrent.futures import ALL_COMPLETED, FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass, replace
 from multiprocessing import get_context
 from pathlib import Path
@@ -76,8 +79,82 @@ class TrialResult:
     sensitivity: np.ndarray
 
 
-def trial_seeds(seed: int, trials: int) -> list[np.random.SeedSequence]:
-    return np.random.SeedSequence(seed).spawn(trials)
+class trial_seeds:  # noqa: N801 (a lazy list)
+    """``SeedSequence(seed).spawn(trials)`` without spawning them all: item k is the k-th
+    child, ``SeedSequence(seed, spawn_key=(k,))``, the same sequence ``spawn`` makes, so
+    a million trials cost nothing before they run."""
+
+    def __init__(self, seed: int, trials: int):
+        self.seed, self.trials = seed, trials
+
+    def __len__(self) -> int:
+        return self.trials
+
+    def __getitem__(self, k: int) -> np.random.SeedSequence:
+        if not 0 <= k < self.trials:
+            raise IndexError(f"trial {k} of {self.trials}")
+        return np.random.SeedSequence(self.seed, spawn_key=(k,))
+
+
+# --------------------------------------------------------------------------- plan of work
+# Measured peak memory of a closed-loop step (benchmarks/resources.py): about 450 B per
+# target and particle with Lambda = 1 (particles, their copies and the likelihood's
+# (K, M, N) terms, K the largest set of a scan), 10 B more per entry of K; guidance
+# about 4600 B x T^2 (the condensed programs of one target, T the horizon); 150 MB of
+# interpreter and libraries per process.
+BYTES_PER_PARTICLE, BYTES_PER_SET_ENTRY, BYTES_PER_HORIZON2, BYTES_PER_PROCESS = 450, 10, 4600, 150e6
+SECONDS_PER_PARTICLE_STEP = 1.5e-6  # one target-particle through a step, paper mission, one core
+
+
+@dataclass(frozen=True)
+class Work:
+    """What a campaign will ask for (:func:`plan_of_work`)."""
+
+    trial_steps: int
+    bytes_per_worker: float
+    workers: int
+    available: float | None  # bytes the machine has free (None: unknown)
+    cpu_seconds: float
+
+    @property
+    def total_bytes(self) -> float:
+        return self.bytes_per_worker * self.workers
+
+    def text(self) -> str:
+        free = f" of {self.available / 2**30:.1f} GiB available" if self.available else ""
+        return (f"plan of work: {self.trial_steps:,} trial-steps, about {_duration(self.cpu_seconds)} of CPU; "
+                f"memory about {self.bytes_per_worker / 2**20:,.0f} MiB x {self.workers} worker(s){free}")
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.0f} min" if seconds < 7200 else \
+        f"{seconds / 3600:.1f} h"
+
+
+def available_memory() -> float | None:
+    """Bytes the machine can give (Linux ``MemAvailable``), None where unknown."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return None
+
+
+def plan_of_work(mission: Mission, workers: int) -> Work:
+    """The campaign's size before it runs: memory per worker from the particles x targets
+    arrays (and the largest scan set the clutter rate makes likely), the guidance
+    programs and the interpreter; CPU time from trials x steps x targets x particles."""
+    m, n = len(mission.targets), mission.filter.particles if mission.filter.kind == "particle" else 1
+    lam = mission.sensor.clutter_rate
+    k = 2 + lam + 4 * np.sqrt(lam + 1)  # a scan's set size rarely exceeds this
+    per_worker = (m * n * (BYTES_PER_PARTICLE + BYTES_PER_SET_ENTRY * k)
+                  + BYTES_PER_HORIZON2 * mission.guidance.horizon**2 + BYTES_PER_PROCESS)
+    trial_steps = mission.trials * mission.steps
+    return Work(trial_steps, float(per_worker), max(1, min(workers, mission.trials)), available_memory(),
+                trial_steps * m * max(n, 1000) * SECONDS_PER_PARTICLE_STEP)
 
 
 # --------------------------------------------------------------------------- one trial
@@ -128,7 +205,32 @@ def _trial_task(mission: Mission, planner: str, index: int, seed: np.random.Seed
     key = fingerprint(mission, planner)
     if key not in _GUIDANCE:
         _GUIDANCE[key] = Guidance(mission.world, mission.dynamics, mission.guidance)
-    return run_trial(mission, planner, index, seed, _GUIDANCE[key])
+    return run_trial(mission, planner, index, seed, _GUIDANCE[key], on_step=_count_step)
+
+
+_STEPS = None  # a worker's handle on the campaign's shared step counter (_start_worker)
+
+
+def _count_step(info) -> None:
+    if _STEPS is not None:
+        with _STEPS.get_lock():
+            _STEPS.value += 1
+
+
+def _start_worker(parent: int, steps) -> None:
+    """A local worker's initializer: count steps into ``steps`` (progress within trials)
+    and exit when the process that started it is gone (killed, not only interrupted), so
+    no worker outlives its campaign by more than a second."""
+    global _STEPS
+    _STEPS = steps
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the main process decides what an interrupt does
+
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, daemon=True).start()
 
 
 # --------------------------------------------------------------------------- trial files
@@ -237,9 +339,11 @@ def _prepare(out: Path, mission: Mission, planner: str, resume: bool) -> Path:
 
 
 # --------------------------------------------------------------------------- the campaign
-def _executor(workers: int, scheduler: str | None):
-    """A ``concurrent.futures`` executor, a closer and how many trials to keep in flight
-    (twice the worker threads), or None to run in this process."""
+def _executor(workers: int, scheduler: str | None, steps=None):
+    """A ``concurrent.futures`` executor, a closer (``close(abort)``: at once, workers
+    terminated, when ``abort``) and how many trials to keep in flight (twice the worker
+    threads), or None to run in this process.  ``steps``: a shared counter the local
+    workers add their steps to."""
     if scheduler:
         try:
             from distributed import Client
@@ -249,11 +353,19 @@ def _executor(workers: int, scheduler: str | None):
             client = Client(scheduler)
         except (OSError, ValueError, TypeError) as exc:  # bad address, nobody listening, timeout
             raise CampaignError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
-        return client.get_executor(), client.close, 2 * max(sum(client.nthreads().values()), 1)
+        return client.get_executor(), lambda abort=False: client.close(), 2 * max(sum(client.nthreads().values()), 1)
     if workers > 1:
-        pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"))
-        return pool, lambda: pool.shutdown(cancel_futures=True), 2 * workers
-    return None, lambda: None, 0
+        pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=_start_worker,
+                                   initargs=(os.getpid(), steps))
+
+        def close(abort: bool = False) -> None:
+            if abort:  # an interrupt: the finished trials are on disk; the running ones are dropped
+                for process in list((pool._processes or {}).values()):
+                    process.terminate()
+            pool.shutdown(wait=not abort, cancel_futures=True)
+
+        return pool, close, 2 * workers
+    return None, lambda abort=False: None, 0
 
 
 def run_campaign(mission: Mission, planner: str, out: Path | None = None, workers: int = 1,
@@ -267,6 +379,7 @@ def run_campaign(mission: Mission, planner: str, out: Path | None = None, worker
     (it runs in this process).
     """
     t0 = time.perf_counter()
+    make_policy(planner, mission)  # a setting this planner cannot use is refused before any trial
     seeds = trial_seeds(mission.seed, mission.trials)
     folder = _prepare_folder(Path(out), mission, planner, resume) if out is not None else None
     # With a folder the trials live on disk (checked readable here, read back for the
@@ -275,7 +388,7 @@ def run_campaign(mission: Mission, planner: str, out: Path | None = None, worker
     results: dict[int, TrialResult] = {}
     todo = [k for k in range(mission.trials) if k not in done]
     if progress:
-        progress.start(mission.trials, len(done))
+        progress.start(mission.trials, len(done), mission.steps)
 
     def finished(r: TrialResult) -> None:
         if folder is not None:
@@ -288,24 +401,38 @@ def run_campaign(mission: Mission, planner: str, out: Path | None = None, worker
     if record is not None:
         finished(_recorded_trial(mission, planner, seeds, record))
         todo = [k for k in todo if k != record[1]]
-    executor, close, window = _executor(min(workers, max(len(todo), 1)), scheduler) if todo else (None, lambda: None, 0)
+    steps = get_context("spawn").Value("q", 0) if todo and workers > 1 and not scheduler else None
+    executor, close, window = (_executor(min(workers, max(len(todo), 1)), scheduler, steps) if todo
+                               else (None, lambda abort=False: None, 0))
+    aborted = True
     try:
         if executor is None:
             guidance = Guidance(mission.world, mission.dynamics, mission.guidance) if todo else None
+            step = (lambda info: progress.step()) if progress and hasattr(progress, "step") else None
             for k in todo:
-                finished(run_trial(mission, planner, k, seeds[k], guidance))
+                finished(run_trial(mission, planner, k, seeds[k], guidance, on_step=step))
         else:  # at most `window` trials in flight: the executor holds no more than that
             running = set()
-            for k in todo:
-                if len(running) == window:
-                    over, running = wait(running, return_when=FIRST_COMPLETED)
+
+            def drain(until) -> set:
+                left = running
+                while True:
+                    over, left = wait(left, timeout=1.0, return_when=until)
                     for future in over:
                         finished(future.result())
+                    if steps is not None and progress and hasattr(progress, "steps"):
+                        progress.steps(steps.value)
+                    if over and until == FIRST_COMPLETED or not left:
+                        return left
+
+            for k in todo:
+                if len(running) == window:
+                    running = drain(FIRST_COMPLETED)
                 running.add(executor.submit(_trial_task, mission, planner, k, seeds[k]))
-            for future in as_completed(running):
-                finished(future.result())
+            drain(ALL_COMPLETED)
+        aborted = False
     finally:
-        close()
+        close(aborted)
         if progress:
             progress.close()
     if folder is not None:  # the summary comes from what is on disk

@@ -15,6 +15,7 @@ import json
 import math
 import os
 import sys
+import tempfile
 from dataclasses import replace
 from pathlib import Path
 
@@ -81,17 +82,24 @@ def _output_file(path: str | Path, flag: str) -> Path:
 
 
 def _check_ancestor(folder: Path, flag: str, named: Path | None = None) -> None:
-    """The nearest existing folder on the way to ``folder`` must be a writable folder."""
+    """The nearest existing folder on the way to ``folder`` must be a writable folder:
+    a file is made and removed there (permission bits do not tell root about /proc)."""
     ancestor = next((p for p in (folder, *folder.parents) if p.exists()), Path("."))
     if not ancestor.is_dir():
         raise UsageError(f"{flag} {named or folder}: {ancestor} is a file, not a folder")
     if not os.access(ancestor, os.W_OK | os.X_OK):
         raise UsageError(f"{flag} {named or folder}: cannot write in {ancestor} (permission denied)")
+    try:
+        with tempfile.TemporaryFile(dir=ancestor):
+            pass
+    except OSError as exc:
+        raise UsageError(f"{flag} {named or folder}: cannot write in {ancestor} ({exc.strerror or exc})") from None
 
 
 def _seed(value: int | None, flag: str = "--seed") -> None:
-    if value is not None and value < 0:
-        raise UsageError(f"{flag} must be >= 0, got {value}")
+    if value is not None and not 0 <= value < 2**63:
+        shown = value if abs(value) < 10**20 else f"an integer of {len(str(abs(value)))} digits"
+        raise UsageError(f"{flag} must be in [0, 2^63 - 1], got {shown}")
 
 
 def _finite(x):
@@ -104,11 +112,14 @@ def _finite(x):
 
 
 def cmd_plan(args: argparse.Namespace) -> int:
+    from .declare import specs
     from .guidance import Guidance
+    from .guidance.model import GuidanceConfig
 
     mission = load_mission(args.mission)
-    if args.time_limit is not None and not (math.isfinite(args.time_limit) and args.time_limit > 0):
-        raise UsageError(f"--time-limit must be a positive number of seconds, got {args.time_limit}")
+    limit = dict(specs(GuidanceConfig))["time_limit"]
+    if args.time_limit is not None and (not math.isfinite(args.time_limit) or limit.out_of_range(args.time_limit)):
+        raise UsageError(f"--time-limit must be in {limit.range_text()} nominal seconds, got {args.time_limit}")
     if args.solver == "scip" and importlib.util.find_spec("pyscipopt") is None:
         raise UsageError("--solver scip needs pyscipopt: pip install 'uavsim[scip]'")
     cfg = mission.guidance
@@ -154,13 +165,42 @@ def _progress(args: argparse.Namespace, label: str):
     return None if args.quiet else Progress(label)
 
 
+def _workers(args: argparse.Namespace) -> int:
+    """``--workers`` checked (a warning above the core count: they would share cores)."""
+    cores = os.cpu_count() or 1
+    if args.workers is not None and args.workers < 1:
+        raise UsageError("--workers must be at least 1")
+    if args.workers is not None and args.workers > cores:
+        print(f"warning: --workers {args.workers} on a machine with {cores} cores: the workers share them, "
+              "each with its own memory", file=sys.stderr)
+    if args.scheduler is not None and not args.scheduler.strip():
+        raise UsageError("--scheduler needs an address (tcp://host:8786)")
+    return args.workers or cores
+
+
+def _check_work(args: argparse.Namespace, mission: Mission, planners: list[str]) -> None:
+    """Before any work: each planner can run this mission (its settings fit the world),
+    then the plan of work, printed; refused when it needs more memory than the machine has."""
+    from .campaign import plan_of_work
+    from .uav import make_policy
+
+    for planner in planners:
+        make_policy(planner, mission)
+
+    work = plan_of_work(mission, 1 if args.scheduler else _workers(args))
+    if work.available is not None and work.total_bytes > 0.9 * work.available:
+        raise UsageError(f"{work.text()}: needs about {work.total_bytes / 2**30:.1f} GiB; lower filter.particles "
+                         f"({mission.filter.particles} x {len(mission.targets)} targets), guidance.horizon or "
+                         "--workers")
+    if not args.quiet:
+        print(work.text(), file=sys.stderr)
+
+
 def _campaign(args: argparse.Namespace, mission: Mission, planner: str, out: Path, record=None) -> dict:
     from .campaign import CampaignError, run_campaign
 
-    if args.workers is not None and args.workers < 1:
-        raise UsageError("--workers must be at least 1")
     try:
-        return run_campaign(mission, planner, out=out, workers=args.workers or os.cpu_count() or 1,
+        return run_campaign(mission, planner, out=out, workers=_workers(args),
                             scheduler=args.scheduler, resume=args.resume, progress=_progress(args, planner),
                             record=record)
     except CampaignError as exc:
@@ -226,6 +266,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         record = (_output_file(args.record, "--record"), args.record_trial, args.record_particles)
     out = _output_folder(args.out or f"runs/{mission.path.stem}-{planner}",
                          files=("summary.json", "rmse.png", "nees.png"))
+    _check_work(args, mission, [planner])
     summary = _study(args, mission, planner, out, out / "baseline", {}, record)
     write_json(out / "summary.json", summary)
     _print_summary(summary)
@@ -252,6 +293,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     out = _output_folder(args.out, files=("compare.json", "rmse.png", "nees.png"))
     for planner in planners:
         _output_folder(out / planner, "--out")
+    _check_work(args, mission, planners)
     results, cache = {}, {}
     for planner in planners:
         results[planner] = _study(args, mission, planner, out / planner, out / "baseline", cache)
@@ -293,6 +335,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     out = _output_folder(args.out, files=("sweep.json", "sweep.csv", "sweep.png"))
     for value in values:
         _output_folder(out / f"{key}={value}", "--out", files=("summary.json",))
+    for mission in missions:
+        _check_work(args, mission, [args.planner or mission.planner.name])
     rows, cache = [], {}
     for value, mission in zip(values, missions):
         planner = args.planner or mission.planner.name
@@ -592,8 +636,29 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _repeated_flag(argv: list[str]) -> str | None:
+    """The first ``--flag`` given twice (``--flag=x`` counts), None if none is: the last
+    would silently win."""
+    seen = set()
+    for token in argv:
+        if token == "--":
+            break
+        if token.startswith("--"):
+            flag = token.split("=", 1)[0]
+            if flag in seen:
+                return flag
+            seen.add(flag)
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser()
+    repeated = _repeated_flag(argv)
+    if repeated:
+        print(f"error: {repeated} given twice; give it once", file=sys.stderr)
+        return 2
+    args = parser.parse_args(argv)
     try:
         return args.func(args)
     except (MissionError, UsageError) as exc:

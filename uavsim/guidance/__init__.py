@@ -32,6 +32,7 @@ from .compiled import assemble_p1
 from .faces import Reach
 from .model import KN, GuidanceConfig, build_p1, geometry
 from .oa import Budget, OuterApproximation
+from .qp import SolverError
 
 SOLVERS = ("highs", "scip")
 WALL_CAP = 4.0  # a solve stops at this many times its nominal budget, plus one second
@@ -171,7 +172,10 @@ class Guidance:
             key = np.r_[mean, cov.ravel(), goal, horizon].tobytes()
             if key in self._cold:
                 return self._cold[key]
-        plan = self._plan(mean, cov, goal, None if warm is None else (warm, shift), horizon, t0)
+        try:
+            plan = self._plan(mean, cov, goal, None if warm is None else (warm, shift), horizon, t0)
+        except SolverError as exc:  # both QP solvers failed: an outcome the caller handles (replan)
+            return self._failed("error", t0, str(exc))
         if key is not None:
             if len(self._cold) >= 256:
                 self._cold.pop(next(iter(self._cold)))

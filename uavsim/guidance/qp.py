@@ -67,6 +67,10 @@ LAZY_ROUNDS = 4  # rounds of adding violated speed rows before DAQP gets every r
 LAZY_TOL = 1e-8  # a speed row violated by more (m/s) is added
 
 
+class SolverError(RuntimeError):
+    """Both QP solvers failed on a fixed-face QP (not infeasibility: that is an answer)."""
+
+
 @dataclass(frozen=True, eq=False)
 class QpSolution:
     """A feasible plan for one face choice (model units).
@@ -502,7 +506,7 @@ class ClarabelQP:
         if status == highspy.HighsModelStatus.kInfeasible:
             return None
         if status != highspy.HighsModelStatus.kOptimal:
-            raise RuntimeError(f"fixed-face QP failed in Clarabel and HiGHS ({h.modelStatusToString(status)})")
+            raise SolverError(f"fixed-face QP failed in Clarabel and HiGHS ({h.modelStatusToString(status)})")
         z = np.asarray(h.getSolution().col_value)
         s = z[c.term_cols]
         return QpSolution(float(c.term_w @ (s * s)), z[c.x_cols], z[c.u_cols], s, np.array(y, float))
