@@ -46,7 +46,8 @@ def main() -> None:
                              capture_output=True, text=True, check=True).stdout
         r = json.loads(out.strip().splitlines()[-1])
         rows.append({"overrides": overrides, **r, "ratio": r["model"] / r["peak"]})
-        print(f"{json.dumps(case):<58}{r['peak'] / 2**20:>10.0f}{r['model'] / 2**20:>11.0f}{r['model'] / r['peak']:>12.2f}")
+        mib = [r["peak"] / 2**20, r["model"] / 2**20]
+        print(f"{json.dumps(case):<58}{mib[0]:>10.0f}{mib[1]:>11.0f}{r['model'] / r['peak']:>12.2f}")
     write(Path(args.out) / "resources.json", {"rows": rows}, started)
     low = [r for r in rows if r["ratio"] < 0.9]
     print(f"wrote {Path(args.out) / 'resources.json'}" + (f"; the model is low on {len(low)} cases" if low else ""))
