@@ -367,8 +367,8 @@ def cmd_tma_reproduce(args: argparse.Namespace) -> int:
     from .estimators.reproduce import reproduce, table
     from .plots import tma_rmse_plot
 
-    if args.runs is not None and args.runs < 2:
-        raise UsageError("--runs must be at least 2")
+    if args.runs is not None and not 2 <= args.runs <= MAX_RUNS:
+        raise UsageError(f"--runs must be in [2, {MAX_RUNS}], got {args.runs}")
     for flag in OLIVA2021_FLAGS:
         if getattr(args, flag) is not None and args.name != "oliva2021":
             raise UsageError(f"--{flag} applies to oliva2021 only, not {args.name}")
@@ -448,8 +448,6 @@ def _tma_reproduce_li2022(args: argparse.Namespace) -> int:
     from .plots import li2022_curves_plot, li2022_sweep_plot
 
     runs = 1000 if args.runs is None else args.runs
-    if runs < 2:
-        raise UsageError("--runs must be at least 2")
     _seed(args.seed)
     rhos = None if args.sigma_scale is None else _sigma_scales(args.sigma_scale)
     out = _output_folder(args.out or f"runs/{args.name}", files=("result.json", "curves.png", "sweep.png"))
@@ -466,6 +464,8 @@ def _tma_reproduce_li2022(args: argparse.Namespace) -> int:
 
 
 # --- tma reproduce oh2021: 003's batch MLE study (Figs. 4-5) ---------------------------------
+
+MAX_RUNS = 1_000_000  # Monte-Carlo runs of a paper's study: beyond this, days of CPU
 
 OH2021_FLAGS = ("targets", "sigmas", "scans", "methods", "workers")
 
@@ -547,8 +547,15 @@ def _campaign_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress output")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a bad command line is one ``error:`` line (exit 2), like a bad file."""
+
+    def error(self, message: str):
+        self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="uavsim", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="uavsim", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("validate", help="check a mission file and print a summary")
     p.add_argument("mission")
