@@ -259,7 +259,7 @@ def test_tma_reproduce_li2022_command(tmp_path, capsys):
     (["huang2021-scenario2", "--sigma-scale", "2"], "applies to the li2022 studies only"),
     (["li2022-line", "--sigma-scale", "1,x"], "positive numbers"),
     (["li2022-line", "--sigma-scale", "-1"], "positive numbers"),
-    (["li2022-line", "--runs", "1"], "--runs must be at least 2"),
+    (["li2022-line", "--runs", "1"], "--runs must be in [2, 1000000], got 1"),
 ])
 def test_tma_reproduce_li2022_bad_input(argv, message, capsys, tmp_path):
     from uavsim.cli import main

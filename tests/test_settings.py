@@ -11,6 +11,7 @@ from uavsim.campaign import run_campaign
 from uavsim.config import load_mission
 from uavsim.declare import si_array, specs
 from uavsim.mission import MissionError
+from uavsim.uav import PlannerConfig
 from uavsim.worldgen import Settings, generate, mission_toml, world_toml
 from uavsim.writer import reference, sections, to_toml
 
@@ -62,26 +63,34 @@ def test_generated_missions_round_trip(tmp_path, kind, seeds):
 
 
 def test_one_default_per_setting(tmp_path):
-    """For every declared field: the dataclass's own default is the declaration's (in SI),
-    the generator writes it (but for ``trials`` and a city's ``time_limit_s``, which the
-    generator documents), and the reader gives it for a mission that leaves the table out."""
+    """For every declared field with a fixed default: the dataclass's own default is the
+    declaration's (in SI), the generator writes it (but for ``trials`` and a city's
+    ``time_limit_s``, which the generator documents), and the reader gives it for a
+    mission that leaves the table out.  (Derived defaults: the area-size tests below.)"""
     minimal = load_mission(_minimal(ROOT / "worlds" / "paper.toml", tmp_path))
     generated = Settings()
+    planner = PlannerConfig()
     for section, obj, read in [("dynamics", generated.dynamics, minimal.dynamics),
                                ("sensor", generated.sensor, minimal.sensor),
                                ("guidance", generated.guidance, minimal.guidance),
-                               ("filter", generated.filter, minimal.filter)]:
+                               ("filter", generated.filter, minimal.filter),
+                               ("uav", generated.uav, minimal.uav),
+                               ("planner", planner, minimal.planner),
+                               ("planner.manoeuvres", planner.manoeuvres, minimal.planner.manoeuvres),
+                               ("planner.fixed_sensors", planner.fixed_sensors, minimal.planner.fixed_sensors),
+                               ("planner.lookahead", planner.lookahead, minimal.planner.lookahead)]:
         cls = type(obj)
         for name, spec in specs(cls):
+            if spec.derived:
+                continue
             want = spec.to_si(spec.default) if spec.to_si else spec.default
             if spec.kind in ("array", "covariance"):
                 want = si_array(spec, spec.default)
-            if spec.derived:
-                continue
             assert same(getattr(cls(), name), want) == [], (section, name)
             assert same(getattr(obj, name), want) == [], (section, name)
             assert same(getattr(read, name), want) == [], (section, name)
     assert minimal.filter.plan_clusters == 2 and minimal.planner.name == "optimized"
+    assert minimal.steps == 50 and minimal.trials == 10 and minimal.seed == 0 and minimal.truth == "planned"
     assert [s.key for s in dict(sections())["[[targets]]"]] == ["name", "position_m", "velocity_mps", "cov0_si",
                                                                 "goal"]
 

@@ -104,6 +104,9 @@ class trial_seeds:  # noqa: N801 (a lazy list)
 # interpreter and libraries per process.
 BYTES_PER_PARTICLE, BYTES_PER_SET_ENTRY, BYTES_PER_HORIZON2, BYTES_PER_PROCESS = 450, 10, 4600, 150e6
 SECONDS_PER_PARTICLE_STEP = 1.5e-6  # one target-particle through a step, paper mission, one core
+# guidance per plan (a target has 1 + 2 (plan_clusters = 2) plans a step): a first plan and
+# a re-plan, medians of the generated suites (docs/guidance-cities.md), one core
+SECONDS_PER_FIRST_PLAN, SECONDS_PER_REPLAN = 0.1, 0.005
 
 
 @dataclass(frozen=True)
@@ -146,15 +149,18 @@ def available_memory() -> float | None:
 def plan_of_work(mission: Mission, workers: int) -> Work:
     """The campaign's size before it runs: memory per worker from the particles x targets
     arrays (and the largest scan set the clutter rate makes likely), the guidance
-    programs and the interpreter; CPU time from trials x steps x targets x particles."""
+    programs and the interpreter; CPU time from trials x steps x targets x particles and
+    the plans (an order of magnitude: the guidance's cost depends on the world)."""
     m, n = len(mission.targets), mission.filter.particles if mission.filter.kind == "particle" else 1
     lam = mission.sensor.clutter_rate
     k = 2 + lam + 4 * np.sqrt(lam + 1)  # a scan's set size rarely exceeds this
     per_worker = (m * n * (BYTES_PER_PARTICLE + BYTES_PER_SET_ENTRY * k)
                   + BYTES_PER_HORIZON2 * mission.guidance.horizon**2 + BYTES_PER_PROCESS)
     trial_steps = mission.trials * mission.steps
-    return Work(trial_steps, float(per_worker), max(1, min(workers, mission.trials)), available_memory(),
-                trial_steps * m * max(n, 1000) * SECONDS_PER_PARTICLE_STEP)
+    plans = m * (1 + 2 * (mission.filter.plan_clusters > 1))
+    cpu = (trial_steps * m * max(n, 1000) * SECONDS_PER_PARTICLE_STEP
+           + mission.trials * plans * (SECONDS_PER_FIRST_PLAN + mission.steps * SECONDS_PER_REPLAN))
+    return Work(trial_steps, float(per_worker), max(1, min(workers, mission.trials)), available_memory(), cpu)
 
 
 # --------------------------------------------------------------------------- one trial
