@@ -176,3 +176,21 @@ class Simulation:
                 both[j, h] = plans[-1].controls[0]
             self.half_plans[j] = plans
         return both[:, 0], (mask, both[:, 1])
+
+
+def target_bearings(infos: list[StepInfo], target: int, dt: float, sensor: int = 0
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """One target's own bearings of a recorded trial, for the estimator library:
+    ``times (K,)`` s, ``bearings (K,)`` rad in the ``"north-cw"`` convention (Eq. 4; NaN
+    where the scan missed the target; false alarms left out), ``observers (K, 2)`` m and
+    the true positions ``(K, 2)``, from the steps ``infos`` that carry scans (``step()``'s
+    results; the first, ``reset()``'s, has none).  ``sensor``: which observer's scans."""
+    steps = [i for i in infos if i.scans]
+    bearings = np.full(len(steps), np.nan)
+    for k, info in enumerate(steps):
+        scan = info.scans[sensor]
+        hit = np.flatnonzero(scan.from_target[target] & scan.valid[target])
+        if len(hit):
+            bearings[k] = scan.bearings[target, hit[0]]
+    return (np.array([i.t * dt for i in steps]), bearings, np.array([i.observers[sensor, :2] for i in steps]),
+            np.array([i.truth[target, :2] for i in steps]))

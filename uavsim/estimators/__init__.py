@@ -6,3 +6,11 @@ core (``batch``) works from +x too, as do 000's modules (``intelligence``,
 ``oliva2021``), and 003's modules (``nrpso``, ``oh2021``) take bearings from north,
 clockwise, converting once at their edge.
 """
+
+from .api import CONVENTIONS, PLKF, PLMMSE, ConstrainedMLE, DegenerateUpdateWarning, convert
+from .intelligence import Disc
+from .nrpso import BatchTMA
+from .plmmse import GaussianMixture
+
+__all__ = ["PLKF", "PLMMSE", "BatchTMA", "ConstrainedMLE", "Disc", "GaussianMixture", "CONVENTIONS", "convert",
+           "DegenerateUpdateWarning"]

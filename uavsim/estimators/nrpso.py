@@ -41,10 +41,12 @@ matrix) and the NR step to 0.2% (4%).  The statistics of the study do not move
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass
 
 import numpy as np
 
+from . import api
 from .batch import BearingData, Evaluator, cholesky_solve, gauss_newton, polynomial_basis, prepare, spd_inverse
 
 
@@ -291,21 +293,60 @@ class BatchTMA:
     def __init__(self, sigma: float, method: str = "nrpso", rng=None, n_candidates: int = 10_000,
                  max_iter: int = 50, tol: float = 1e-9, hessian: bool = False, n_particles: int = 400,
                  n_iter: int = 50, alpha: float = 0.25, c_l: float = 1.55, c_g: float = 0.15, c_n: float = 0.1,
-                 n_thr: float = 1e-4, carry: str = "move", area: SearchArea = SearchArea(), dtype=np.float32):
+                 n_thr: float = 1e-4, carry: str = "move", area: SearchArea = SearchArea(), dtype=np.float32,
+                 convention: str = "north-cw", units: str = "rad"):
         if method not in METHODS:
             raise ValueError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
-        if not np.isfinite(sigma) or sigma <= 0:
-            raise ValueError(f"sigma must be a positive number of radians; got {sigma!r}")
-        self.sigma, self.method, self.rng = sigma, method, rng
+        api._choice("convention", convention, api.CONVENTIONS)
+        self._sigma = api.check_sigma(sigma, units)
+        self.sigma, self.method, self.rng, self.convention, self.units = sigma, method, rng, convention, units
         self.n_candidates, self.max_iter, self.tol, self.hessian = n_candidates, max_iter, tol, hessian
         self.n_particles, self.n_iter, self.alpha, self.c_l, self.c_g = n_particles, n_iter, alpha, c_l, c_g
         self.c_n, self.n_thr, self.carry, self.area, self.dtype = c_n, n_thr, carry, area, dtype
 
+    def get_params(self, deep: bool = True) -> dict:
+        """The constructor's settings (scikit-learn's protocol)."""
+        return {name: getattr(self, name) for name in inspect.signature(type(self).__init__).parameters
+                if name != "self"}
+
+    def set_params(self, **params) -> BatchTMA:
+        """Change settings (checked as the constructor checks them); returns self."""
+        unknown = set(params) - set(self.get_params())
+        if unknown:
+            raise ValueError(f"unknown parameters {sorted(unknown)}; BatchTMA takes {sorted(self.get_params())}")
+        self.__init__(**{**self.get_params(), **params})
+        return self
+
     def fit(self, times, bearings, observer_positions) -> BatchTMA:
-        """``times (K,)`` s; ``bearings (K,)`` or ``(R, K)``, rad clockwise from north
-        (003 Eq. 3); ``observer_positions (K, 2)`` or ``(R, K, 2)`` m."""
+        """``times (K,)`` s; ``bearings (K,)`` or ``(R, K)`` in the estimator's ``convention``
+        and ``units``; ``observer_positions (K, 2)`` or ``(R, K, 2)`` m.  Checked first:
+        shapes, finite values, at least 4 scans (4 unknowns), bearings in [-pi, pi]."""
+        b = np.asarray(bearings, dtype=float)
+        if b.ndim not in (1, 2) or b.shape[-1] < 4:
+            raise ValueError(f"bearings has shape {b.shape}; expected (K,) or (R, K) with K >= 4 scans for the "
+                             "4 unknowns [px, py, vx, vy]")
+        t = api.check_times(times, b.shape[-1])
+        b = api.check_bearings(b, self.convention, "north-cw", self.units, shape=b.shape)
+        obs = np.asarray(observer_positions, dtype=float)
+        if obs.shape not in ((b.shape[-1], 2), (*b.shape, 2)) or not np.all(np.isfinite(obs)):
+            raise ValueError(f"observer_positions has shape {obs.shape}; expected ({b.shape[-1]}, 2) or "
+                             f"{(*b.shape, 2)} of finite numbers")
+        self.t0_ = float(t[0])
+        return self._fit(t, b, obs)
+
+    def predict(self, times) -> np.ndarray:
+        """The fitted track at ``times (K,)``: states ``(K, 4)`` (``(R, K, 4)`` after a
+        batch fit), constant velocity from ``x_`` at the first fitted time."""
+        if not hasattr(self, "x_"):
+            raise ValueError("call fit before predict")
+        dt = np.asarray(times, dtype=float) - self.t0_
+        x = np.asarray(self.x_)[..., None, :]
+        return np.concatenate([x[..., :2] + dt[:, None] * x[..., 2:], np.broadcast_to(x[..., 2:], (*x.shape[:-2],
+                                                                                                 len(dt), 2))], -1)
+
+    def _fit(self, times, bearings, observer_positions) -> BatchTMA:
         single = np.ndim(bearings) == 1
-        prob = problem(times, bearings, observer_positions, self.sigma, self.area)
+        prob = problem(times, bearings, observer_positions, self._sigma, self.area)
         rng = np.random.default_rng() if self.rng is None else self.rng
         r = prob.data.runs
         self.degenerate_, self.newton_share_ = np.zeros(r, bool), np.zeros(r)

@@ -1,0 +1,127 @@
+"""The estimator library's one interface: package-level imports, the two bearing
+conventions, and every user mistake an adversarial tester made ending in a clear error
+or warning (bearings or sigma in degrees, NaN bearings, a non-PSD prior, wrong shapes,
+too few scans, a degenerate update)."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from uavsim.estimators import PLKF, PLMMSE, BatchTMA, DegenerateUpdateWarning, GaussianMixture, convert
+
+K = 60
+TIMES = np.arange(K, dtype=float)
+TRUTH = np.column_stack([2000 + 10 * TIMES, 3000 - 5 * TIMES])  # (K, 2) m
+OBS = np.column_stack([300 * np.sin(TIMES / 10), 100 * TIMES])  # the observer weaves north
+SIGMA = np.radians(1.0)
+PRIOR = dict(x0=[1500.0, 3500.0, 0.0, 0.0], P0=np.diag([1e6, 1e6, 100.0, 100.0]), q=0.01)
+
+
+def bearings(seed=0):
+    """North-clockwise bearings (the simulator's convention) with 1 deg noise."""
+    d = TRUTH - OBS
+    return np.arctan2(d[:, 0], d[:, 1]) + np.random.default_rng(seed).normal(0, SIGMA, K)
+
+
+def test_conventions_are_mirror_images_and_give_the_same_estimate():
+    """atan2(dx, dy) = pi/2 - atan2(dy, dx) (mod 2 pi): by hand at 0, 90 and 180 deg, and
+    a filter given the same data in either convention returns the same track."""
+    np.testing.assert_allclose(convert([0.0, np.pi / 2, np.pi], "north-cw", "east-ccw"),
+                               [np.pi / 2, 0.0, np.pi / 2 - np.pi])
+    b = bearings()
+    north = PLMMSE(SIGMA, **PRIOR).filter(TIMES, b, OBS)[0]
+    east = PLMMSE(SIGMA, convention="east-ccw", **PRIOR).filter(TIMES, convert(b, "north-cw", "east-ccw"), OBS)[0]
+    np.testing.assert_allclose(north, east, rtol=1e-9, atol=1e-6)
+
+
+def test_the_bearings_buy_an_estimate_the_prior_alone_does_not_give():
+    """Against the no-update control (every scan missed: dead reckoning from the prior),
+    PL-MMSE's final position error is at least 5x smaller on each of 3 noise draws
+    (1349 m against 22-153 m)."""
+    control = PLMMSE(SIGMA, **PRIOR).filter(TIMES, np.full(K, np.nan), OBS)[0]
+    err_control = np.hypot(*(control[-1, :2] - TRUTH[-1]))
+    for seed in range(3):
+        track = PLMMSE(SIGMA, **PRIOR).filter(TIMES, bearings(seed), OBS)[0]
+        assert np.hypot(*(track[-1, :2] - TRUTH[-1])) < err_control / 5
+
+
+def test_degrees_are_refused_unless_asked_for():
+    b = bearings()
+    for make in (lambda: PLMMSE(SIGMA, **PRIOR), lambda: PLKF(SIGMA, **PRIOR)):
+        with pytest.raises(ValueError, match=r"outside \[-pi, pi\]: probably degrees; pass units='deg'"):
+            make().filter(TIMES, np.degrees(b), OBS)
+    with pytest.raises(ValueError, match=r"outside \[-pi, pi\]: probably degrees"):
+        BatchTMA(SIGMA).fit(TIMES, np.degrees(b), OBS)
+    with pytest.raises(ValueError, match=r"sigma = 1 rad \(57.3 deg\) is above 0.5 rad: probably degrees"):
+        PLMMSE(1.0, **PRIOR)
+    with pytest.raises(ValueError, match="probably degrees"):
+        BatchTMA(1.0)
+    in_degrees = PLMMSE(1.0, units="deg", **PRIOR).filter(TIMES, np.degrees(b), OBS)[0]
+    np.testing.assert_allclose(in_degrees, PLMMSE(SIGMA, **PRIOR).filter(TIMES, b, OBS)[0], rtol=1e-9, atol=1e-6)
+
+
+def test_a_nan_bearing_is_a_missed_scan_not_a_nan_track():
+    b = bearings()
+    b[[5, 30]] = np.nan
+    f = PLMMSE(SIGMA, **PRIOR)
+    tracks, covs = f.filter(TIMES, b, OBS)
+    assert np.all(np.isfinite(tracks)) and np.all(np.isfinite(covs)) and f.missed == 2
+    assert f.update(None, OBS[0]) and f.missed == 3
+    with pytest.raises(ValueError, match="not finite"):
+        BatchTMA(SIGMA).fit(TIMES, b, OBS)
+
+
+@pytest.mark.parametrize("p0, message", [
+    (np.diag([1e6, 1e6, 100.0, -1.0]), "not positive definite"),
+    (np.array([[1, 2, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]), "not symmetric"),
+    (np.eye(3), r"P0 must be a finite 4x4 matrix \(or 4 variances\); got shape \(3, 3\)"),
+])
+def test_a_bad_prior_covariance_is_refused(p0, message):
+    with pytest.raises(ValueError, match=message):
+        PLMMSE(SIGMA, x0=[0, 0, 0, 0], P0=p0)
+
+
+def test_wrong_shapes_are_named():
+    with pytest.raises(ValueError, match=r"observers has shape \(59, 2\); expected \(60, 2\)"):
+        PLMMSE(SIGMA, **PRIOR).filter(TIMES, bearings(), OBS[1:])
+    with pytest.raises(ValueError, match=r"times has shape \(59,\); expected \(60,\)"):
+        BatchTMA(SIGMA).fit(TIMES[1:], bearings(), OBS)
+    with pytest.raises(ValueError, match="K >= 4 scans for the 4 unknowns"):
+        BatchTMA(SIGMA).fit(TIMES[:1], bearings()[:1], OBS[:1])
+    with pytest.raises(ValueError, match="strictly increasing"):
+        PLKF(SIGMA, **PRIOR).filter(TIMES[::-1], bearings(), OBS)
+
+
+def test_a_degenerate_update_is_a_warning():
+    """The observer on the estimated target, whose position is all but certain: the
+    pseudo-linear update's innovation variance (d^2 sigma^2 + H P H^T, d = 0) is below
+    1e-300, so it is skipped, counted, and a DegenerateUpdateWarning says so."""
+    f = PLKF(SIGMA, x0=[100.0, 100.0, 0.0, 0.0], P0=np.diag([1e-301, 1e-301, 1.0, 1.0]))
+    with pytest.warns(DegenerateUpdateWarning, match="degenerate"):
+        ok = f.update(0.3, [100.0, 100.0])
+    assert not ok and f.degenerate == 1 and np.all(np.isfinite(f.x))
+
+
+def test_batch_estimator_protocol():
+    """fit -> self with x_, cov_, converged_; predict(times) moves x_ at constant
+    velocity; get_params / set_params round-trip and check like the constructor."""
+    est = BatchTMA(SIGMA, method="nr", rng=np.random.default_rng(1))
+    assert est.fit(TIMES, bearings(), OBS) is est
+    track = est.predict(TIMES)
+    assert track.shape == (K, 4) and est.cov_.shape == (4, 4)
+    np.testing.assert_allclose(track[0], est.x_)
+    np.testing.assert_allclose(track[-1, :2], est.x_[:2] + (K - 1) * est.x_[2:])
+    assert est.get_params()["method"] == "nr" and est.set_params(method="pso").method == "pso"
+    with pytest.raises(ValueError, match="unknown parameters"):
+        est.set_params(methd="nr")
+
+
+def test_mixture_noise_is_given_in_radians():
+    noise = GaussianMixture([0.7, 0.3], [np.radians(0.5) ** 2, np.radians(3.0) ** 2])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tracks, _ = PLMMSE(noise, **PRIOR).filter(TIMES, bearings(), OBS)
+    assert np.all(np.isfinite(tracks))
+    with pytest.raises(ValueError, match="probably degrees"):
+        PLMMSE(GaussianMixture([1.0], [3.0**2]), **PRIOR)

@@ -1,0 +1,296 @@
+"""One interface for the estimator library, with its inputs checked before any work.
+
+Recursive filters (:class:`PLKF`, :class:`PLMMSE`)::
+
+    f = PLMMSE(sigma=np.radians(1.0), x0=[...], P0=np.diag([...]), q=0.01, convention="north-cw")
+    f.predict(dt=1.0); f.update(bearing, observer)      # None or NaN: a missed scan
+    tracks, covs = f.filter(times, bearings, observers)  # (K, 4), (K, 4, 4)
+
+Batch estimators (:class:`uavsim.estimators.nrpso.BatchTMA`) ``fit(times, bearings,
+observers) -> self`` with ``x_``, ``cov_``, ``converged_`` and ``predict(times)``.
+
+**Bearings** are in radians, in one of two conventions named by ``convention=``:
+``"north-cw"`` (from +y, clockwise, ``atan2(dx, dy)``: the simulator's and paper 003's)
+or ``"east-ccw"`` (from +x, anticlockwise, ``atan2(dy, dx)``: papers 000-002's); each is
+converted once, here, to the convention of the code behind.  ``units="deg"`` takes
+bearings and ``sigma`` in degrees on purpose; otherwise a bearing outside [-pi, pi] or a
+``sigma`` above 0.5 rad is refused as probably degrees.  State ``[px, py, vx, vy]`` (m, m/s).
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from . import plkf, plmmse
+
+CONVENTIONS = ("north-cw", "east-ccw")
+SIGMA_MAX_RAD = 0.5  # a bearing noise above this (29 deg) is far more likely degrees by mistake
+
+
+class DegenerateUpdateWarning(UserWarning):
+    """Some updates were skipped (zero innovation variance, an undefined gain)."""
+
+
+def convert(bearings, convention: str, to: str) -> np.ndarray:
+    """Bearings (rad) from one convention to the other, wrapped to ``(-pi, pi]``
+    (the two are mirror images about the 45-degree line: ``b' = pi/2 - b``)."""
+    _choice("convention", convention, CONVENTIONS)
+    _choice("to", to, CONVENTIONS)
+    b = np.asarray(bearings, dtype=float)
+    b = b if convention == to else np.pi / 2 - b
+    return np.pi - np.mod(np.pi - b, 2 * np.pi)
+
+
+def _choice(name: str, value, allowed) -> None:
+    if value not in allowed:
+        raise ValueError(f"{name} must be one of {', '.join(map(repr, allowed))}; got {value!r}")
+
+
+def check_sigma(sigma, units: str = "rad") -> float:
+    """A bearing noise std in radians (``units="deg"`` converts)."""
+    _choice("units", units, ("rad", "deg"))
+    s = float(np.radians(sigma) if units == "deg" else sigma) if np.ndim(sigma) == 0 else np.nan
+    if not np.isfinite(s) or s <= 0:
+        raise ValueError(f"sigma must be a positive number of {units}; got {sigma!r}")
+    if s > SIGMA_MAX_RAD:
+        raise ValueError(f"sigma = {s:g} rad ({np.degrees(s):.3g} deg) is above {SIGMA_MAX_RAD} rad: probably "
+                         "degrees; pass units='deg' to give degrees on purpose")
+    return s
+
+
+def check_bearings(bearings, convention: str, to: str, units: str = "rad", missing: bool = False,
+                   shape: tuple | None = None) -> np.ndarray:
+    """Bearings as the code behind wants them: radians, convention ``to``.  ``missing``:
+    NaN marks a missed scan (recursive filters), else every value must be finite."""
+    _choice("units", units, ("rad", "deg"))
+    b = np.asarray(bearings, dtype=float) if not isinstance(bearings, (str, bytes)) else None
+    if b is None or b.ndim == 0 and shape is not None and len(shape) > 0:
+        raise ValueError(f"bearings must be an array of numbers of shape {shape}; got {bearings!r}")
+    if shape is not None and b.shape != shape:
+        raise ValueError(f"bearings has shape {b.shape}; expected {shape}")
+    if units == "deg":
+        b = np.radians(b)
+    bad = ~np.isfinite(b) if not missing else np.isinf(b)
+    if bad.any():
+        i = int(np.flatnonzero(bad.ravel())[0])
+        raise ValueError(f"bearings[{i}] = {b.ravel()[i]} is not finite" +
+                         ("" if missing else " (a recursive filter takes NaN as a missed scan)"))
+    if np.any(np.abs(b[np.isfinite(b)]) > np.pi + 1e-9):
+        i = int(np.argmax(np.abs(np.where(np.isfinite(b), b, 0)).ravel()))
+        raise ValueError(f"bearings[{i}] = {b.ravel()[i]:g} is outside [-pi, pi]: probably degrees; pass "
+                         "units='deg' to give degrees on purpose (or np.radians(bearings))")
+    return convert(b, convention, to)
+
+
+def check_points(points, n: int, name: str) -> np.ndarray:
+    """``(n, 2)`` finite positions (m); a single ``(2,)`` point is repeated."""
+    p = np.asarray(points, dtype=float)
+    if p.shape == (2,):
+        p = np.broadcast_to(p, (n, 2))
+    if p.shape != (n, 2):
+        raise ValueError(f"{name} has shape {p.shape}; expected ({n}, 2) to match the bearings, or (2,)")
+    if not np.all(np.isfinite(p)):
+        raise ValueError(f"{name} holds non-finite values")
+    return p
+
+
+def check_times(times, n: int | None = None) -> np.ndarray:
+    t = np.asarray(times, dtype=float)
+    if t.ndim != 1 or (n is not None and len(t) != n):
+        raise ValueError(f"times has shape {t.shape}; expected ({n if n is not None else 'K'},)")
+    if not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise ValueError("times must be finite and strictly increasing")
+    return t
+
+
+def check_state(x0, p0) -> tuple[np.ndarray, np.ndarray]:
+    """A prior ``x0 (4,)`` and a symmetric positive definite ``P0 (4, 4)``."""
+    x = np.asarray(x0, dtype=float)
+    p = np.asarray(p0, dtype=float)
+    if x.shape != (4,) or not np.all(np.isfinite(x)):
+        raise ValueError(f"x0 must be 4 finite numbers [px, py, vx, vy]; got shape {x.shape}")
+    if p.shape == (4,):
+        p = np.diag(p)
+    if p.shape != (4, 4) or not np.all(np.isfinite(p)):
+        raise ValueError(f"P0 must be a finite 4x4 matrix (or 4 variances); got shape {p.shape}")
+    if not np.allclose(p, p.T, rtol=1e-10, atol=0):
+        raise ValueError("P0 is not symmetric")
+    try:
+        np.linalg.cholesky(p)
+    except np.linalg.LinAlgError:
+        raise ValueError("P0 is not positive definite") from None
+    return x, p
+
+
+class _Recursive:
+    """What :class:`PLKF` and :class:`PLMMSE` share: the state, predict / update, a
+    whole sequence through :meth:`filter`, and the count of degenerate updates."""
+
+    internal = "east-ccw"  # papers 001-002: the code behind takes bearings from +x
+
+    def __init__(self, x0, P0, q, dt: float, convention: str, units: str):  # noqa: N803 (the papers' P)
+        _choice("convention", convention, CONVENTIONS)
+        _choice("units", units, ("rad", "deg"))
+        self.x, self.P = check_state(x0, P0)
+        q_arr = np.asarray(q, dtype=float)
+        if q_arr.shape not in ((), (2,)) or not np.all(np.isfinite(q_arr)) or np.any(q_arr < 0):
+            raise ValueError(f"q must be a power spectral density >= 0 (m^2/s^3), one or two numbers; got {q!r}")
+        if not (np.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt must be a positive number of seconds; got {dt!r}")
+        self.q, self.dt, self.convention, self.units = q_arr, float(dt), convention, units
+        self.degenerate, self.missed = 0, 0
+
+    def predict(self, dt: float | None = None) -> None:
+        """Move the estimate ``dt`` seconds (default the filter's) by the constant-velocity model."""
+        f, q = plkf.cv_model(self.dt if dt is None else float(dt), self.q if self.q.ndim else float(self.q))
+        x, p = plkf.predict(self.x[None], self.P[None], f, q)
+        self.x, self.P = x[0], p[0]
+
+    def update(self, bearing, observer) -> bool:
+        """One scan: ``bearing`` (None or NaN: missed, nothing changes) seen from
+        ``observer (2,)``.  Returns False where the update was degenerate (skipped; a
+        :class:`DegenerateUpdateWarning` says so)."""
+        if bearing is None or (np.ndim(bearing) == 0 and np.isnan(bearing)):
+            self.missed += 1
+            return True
+        beta = check_bearings([bearing], self.convention, self.internal, self.units, shape=(1,))
+        s = check_points(observer, 1, "observer")
+        x, p, ok = self._update(self.x[None], self.P[None], beta, s)
+        self.x, self.P = x[0], p[0]
+        if not ok[0]:
+            self.degenerate += 1
+            warnings.warn(f"{type(self).__name__}: a degenerate update was skipped (an innovation variance that is "
+                          "not positive: a prior wide against the range, or the observer on the estimate)",
+                          DegenerateUpdateWarning, stacklevel=2)
+        return bool(ok[0])
+
+    def filter(self, times, bearings, observers) -> tuple[np.ndarray, np.ndarray]:
+        """Every scan in turn: ``times (K,)`` s, ``bearings (K,)`` (NaN: missed),
+        ``observers (K, 2)``; the prior is at ``times[0]``.  Returns ``tracks (K, 4)`` and
+        ``covs (K, 4, 4)``, the estimate after each scan."""
+        b = np.asarray(bearings, dtype=float)
+        t = check_times(times, b.shape[0] if b.ndim == 1 else None)
+        check_bearings(b, self.convention, self.internal, self.units, missing=True, shape=(len(t),))
+        s = check_points(observers, len(t), "observers")
+        tracks, covs, before = np.empty((len(t), 4)), np.empty((len(t), 4, 4)), self.degenerate
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DegenerateUpdateWarning)
+            for k in range(len(t)):
+                if k:
+                    self.predict(t[k] - t[k - 1])
+                self.update(None if np.isnan(b[k]) else b[k], s[k])
+                tracks[k], covs[k] = self.x, self.P
+        if self.degenerate > before:
+            warnings.warn(f"{type(self).__name__}: {self.degenerate - before} of {len(t)} updates were degenerate "
+                          "and skipped", DegenerateUpdateWarning, stacklevel=2)
+        return tracks, covs
+
+
+class PLKF(_Recursive):
+    """The pseudo-linear Kalman filter family of [Huang2021]: ``kind`` one of
+    ``"plkf"``, ``"bc-plkf"``, ``"iv-plkf"``, ``"ub-plkf"``, ``"vc-plkf"`` (speed bounds
+    ``v_min``, ``v_max``, m/s); ``sigma`` the bearing noise std; ``q`` the process
+    noise's power spectral density (m^2/s^3, one or ``(q_x, q_y)``)."""
+
+    def __init__(self, sigma, x0, P0, q=0.0, dt: float = 1.0, kind: str = "plkf",  # noqa: N803
+                 convention: str = "north-cw", units: str = "rad", v_min: float = 0.0, v_max: float = np.inf):
+        _choice("kind", kind, plkf.FILTERS)
+        super().__init__(x0, P0, q, dt, convention, units)
+        self.sigma, self.kind = check_sigma(sigma, units), kind
+        self._options = {"v_min": v_min, "v_max": v_max} if kind == "vc-plkf" else {}
+
+    def _update(self, x, p, beta, s):
+        return plkf.UPDATES[self.kind](x, p, beta, s, self.sigma, **self._options)
+
+
+class PLMMSE(_Recursive):
+    """PL-MMSE of [Li2022] (``kind="pl-mmse"``) or its baselines (``"plkf"``,
+    ``"bc-plkf"``, ``"ivkf"``) under Gaussian-mixture bearing noise: ``noise`` a
+    :class:`uavsim.estimators.plmmse.GaussianMixture` (rad) or a number, the std of
+    Gaussian noise.  ``constraint(x (R, 4), P (R, 4, 4)) -> (x~, ok)`` (from
+    :mod:`uavsim.estimators.constraints`): ``estimate`` is the constrained estimate after
+    each update; the filter itself runs unconstrained ([Li2022] Tables 2-3)."""
+
+    def __init__(self, noise, x0, P0, q=0.0, dt: float = 1.0, kind: str = "pl-mmse",  # noqa: N803
+                 convention: str = "north-cw", units: str = "rad", constraint=None):
+        _choice("kind", kind, plmmse.FILTERS)
+        super().__init__(x0, P0, q, dt, convention, units)
+        if not isinstance(noise, plmmse.GaussianMixture):
+            noise = plmmse.GaussianMixture((1.0,), (check_sigma(noise, units) ** 2,))
+        elif noise.covs.shape[1:] != (1, 1):
+            raise ValueError(f"noise must be a scalar (bearing) mixture; got components of {noise.covs.shape[1:]}")
+        else:
+            for var in noise.covs[:, 0, 0]:
+                check_sigma(np.sqrt(var))  # a mixture is given in radians
+        self.noise, self.kind, self.constraint = noise, kind, constraint
+        self.estimate = self.x
+
+    def _update(self, x, p, beta, s):
+        x, p, ok = plmmse.UPDATES[self.kind](x, p, beta, s, self.noise)
+        if self.constraint is not None:
+            est, fine = self.constraint(x, p)
+            self.estimate = est[0]
+            ok = ok & fine
+        else:
+            self.estimate = x[0]
+        return x, p, ok
+
+
+class ConstrainedMLE:
+    """The intelligence-aware batch MLE of [Oliva2021] with the batch face of
+    :class:`uavsim.estimators.nrpso.BatchTMA`: a polynomial track of ``order`` (1:
+    constant velocity, ``x_ = [px, py, vx, vy]``; 2: constant acceleration, ``[.., ax,
+    ay]``) at the first scan's time, fitted to the bearings by Levenberg-Marquardt and,
+    with intelligence, by SLSQP subject to "inside every disc of ``inside``, outside every
+    disc of ``outside``" at every scan time ([Oliva2021] Eq. 14).  ``cov_`` is the
+    unconstrained CRLB at the estimate ([Oliva2021] Eq. 16)."""
+
+    def __init__(self, sigma, inside=(), outside=(), order: int = 2, convention: str = "east-ccw",
+                 units: str = "rad"):
+        from .intelligence import Disc
+
+        _choice("convention", convention, CONVENTIONS)
+        if order not in (1, 2):
+            raise ValueError(f"order must be 1 (constant velocity) or 2 (constant acceleration); got {order!r}")
+        for d in (*inside, *outside):
+            if not isinstance(d, Disc):
+                raise ValueError(f"inside and outside hold Disc(centre, radius) sets; got {d!r}")
+        self._sigma = check_sigma(sigma, units)
+        self.sigma, self.inside, self.outside, self.order = sigma, tuple(inside), tuple(outside), order
+        self.convention, self.units = convention, units
+
+    def fit(self, times, bearings, observers) -> ConstrainedMLE:
+        from .batch import crlb, polynomial_basis, prepare
+        from .intelligence import Intelligence, TrackConstraints, pseudo_linear, solve
+
+        b = np.asarray(bearings, dtype=float)
+        n = 2 * (self.order + 1)
+        if b.ndim != 1 or len(b) < n:
+            raise ValueError(f"bearings has shape {b.shape}; expected (K,) with K >= {n} scans for the {n} unknowns")
+        t = check_times(times, len(b))
+        b = check_bearings(b, self.convention, "east-ccw", self.units, shape=b.shape)
+        obs = check_points(observers, len(b), "observers")
+        phi = polynomial_basis(t, self.order)
+        data = prepare(phi, obs, b, self._sigma)
+        res = solve(data, pseudo_linear(data))
+        if self.inside or self.outside:
+            tc = TrackConstraints(Intelligence(self.inside, self.outside), phi)
+            res = solve(data, res.theta, tc)
+        self.t0_, self.x_ = float(t[0]), res.theta[0, 0]
+        self.converged_, self.violation_ = bool(res.converged[0, 0]), float(res.violation[0, 0])
+        try:
+            self.cov_ = crlb(phi, obs, self.x_, self._sigma)
+        except ValueError:
+            self.cov_ = np.full((n, n), np.nan)
+            self.converged_ = False
+        return self
+
+    def predict(self, times) -> np.ndarray:
+        """Positions ``(K, 2)`` of the fitted track at ``times``."""
+        from .batch import polynomial_basis
+
+        if not hasattr(self, "x_"):
+            raise ValueError("call fit before predict")
+        return polynomial_basis(np.asarray(times, float), self.order, t_ref=self.t0_) @ self.x_
