@@ -273,6 +273,23 @@ def run_rows(sc: Li2022Scenario, x0: np.ndarray, noise: np.ndarray, rho: float, 
     return {label: rows[label] for label in sc.published}  # the paper's row order
 
 
+def control_rows(sc: Li2022Scenario, x0: np.ndarray) -> dict:
+    """The no-update control of every row: the same runs with every bearing update off.
+    The filters then only predict from ``x^_{1|1}`` (the same for every filter), and a
+    constrained row projects that prediction with its constraint.  label -> estimates
+    ``(R, N, 4)``."""
+    x, p = np.empty((*x0.shape[:1], N_SCANS, 4)), np.empty((x0.shape[0], N_SCANS, 4, 4))
+    x[:, 0], p[:, 0] = x0, sc.p0
+    for k in range(1, N_SCANS):
+        x[:, k] = x[:, k - 1] @ sc.f.T
+        p[:, k] = sc.f @ p[:, k - 1] @ sc.f.T + sc.q
+    rows = {LABELS[kind]: x for kind in FILTERS}
+    for suffix, constrain in sc.variants.items():
+        xc = constrain(x.reshape(-1, 4), p.reshape(-1, 4, 4))[0].reshape(x.shape)
+        rows.update({LABELS[kind] + suffix: xc for kind in FILTERS})
+    return {label: rows[label] for label in sc.published}
+
+
 def metrics(est: np.ndarray, truth: np.ndarray, first: int = L0) -> dict:
     """Eq. (64)-(71) from estimates ``(R, N, 4)``: per-scan curves ``(N,)`` and their
     time averages over scans ``first..N`` (1-based)."""
@@ -311,8 +328,13 @@ def reproduce(name: str, runs: int, seed: int, rhos=None, reading: Reading = Rea
            "sigma_theta_label_deg": RHO * sc.label_deg_per_rho,
            "bearing_std_deg": float(np.degrees(RHO * np.sqrt(sc.bearing.cov[0, 0]))),
            "unit_scale": list(sc.unit_scale), "rows": {}}
+    controls = control_rows(sc, x0)
     for label, (est, degenerate, seconds) in run_rows(sc, x0, noise, RHO, reading).items():
         row, m = _row_result(sc, label, est, degenerate, seconds, runs)
+        control = metrics(controls[label], sc.truth)
+        row["control"] = {f"{k}_avg": control[f"{k}_avg"] for k in METRICS}
+        # the share of the no-update control's position error the bearings removed
+        row["bought"] = 1.0 - row["rmse_pos_avg"] / control["rmse_pos_avg"]
         pub = [v * s for v, s in zip(sc.published[label], sc.unit_scale)]
         row["published"] = dict(zip(METRICS, pub))
         row["ratio"] = {k: row[f"{k}_avg"] / p for k, p in zip(METRICS, pub)}
@@ -339,12 +361,15 @@ def table(result: dict) -> str:
              f"rho = {result['rho']:g} (label sigma_theta = {result['sigma_theta_label_deg']:.3g} deg, "
              f"actual std {result['bearing_std_deg']:.3g} deg), time-averaged over scans "
              f"{result['first_averaged_scan']}..{result['scans']}",
-             f"{'filter':18s}{head}",
+             f"{'filter':18s}{head}{'no-update RMSEpos':>19s}{'bought':>8s}",
              f"{'':18s}" + f"{'paper':>9s}{'ours':>9s}{'ratio':>9s}" * 4]
     for label, r in result["rows"].items():
         cells = "".join(f"{r['published'][m] / s:9.3f}{r[m + '_avg'] / s:9.3f}{r['ratio'][m]:9.2f}"
                         for m, s in zip(METRICS, scale))
-        lines.append(f"{label:18s}{cells}")
+        control = f"{r['control']['rmse_pos_avg'] / scale[0]:19.3f}{r['bought']:8.1%}" if "control" in r else ""
+        lines.append(f"{label:18s}{cells}{control}")
+    lines.append("no-update: the same runs with every bearing update off (the prior predicted, constrained as the "
+                 "row is); bought: the share of its position RMSE the bearings removed")
     return "\n".join(lines)
 
 
