@@ -68,7 +68,7 @@ def test_manoeuvres_stay_in_the_region_clear_of_obstacles(name):
     m = load_mission(CONSTRAINED)
     rng = np.random.default_rng(0)
     for start in rng.uniform([0, 0], [1000, 220], (5, 2)):
-        route = manoeuvre_route(name, np.r_[start, 40.0], m.planner.manoeuvres, m.uav, m.world, m.path)
+        route = manoeuvre_route(name, np.r_[start, 40.0], m.planner.manoeuvres, m.uav, m.world)
         pts = np.array([route.position(k) for k in range(120)])
         assert m.uav.region.contains(pts).all() and not m.world.in_obstacle(pts).any()
         assert not m.world.segment_blocked(pts[:-1], pts[1:]).any()

@@ -46,7 +46,7 @@ from threadpoolctl import threadpool_limits
 from . import metrics
 from .files import write_atomic
 from .guidance import Guidance
-from .mission import Mission
+from .mission import Mission, mission_errors
 from .pcrlb import Bound, pcrlb_planned
 from .sim import STAGES, Simulation
 from .uav import BASELINE, MANOEUVRES, make_policy
@@ -175,7 +175,7 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
               guidance: Guidance | None = None, on_step=None, oracle: bool = False) -> TrialResult:
     """Run one trial (BLAS single-threaded); ``on_step(info)`` sees every step; ``oracle``
     see :class:`uavsim.sim.Simulation`."""
-    with one_blas_thread():
+    with one_blas_thread(), mission_errors(mission.path):
         sim = Simulation(mission, planner, guidance, oracle)
         info = sim.reset(seed)
         if on_step:
@@ -385,7 +385,8 @@ def run_campaign(mission: Mission, planner: str, out: Path | None = None, worker
     (it runs in this process).
     """
     t0 = time.perf_counter()
-    make_policy(planner, mission)  # a setting this planner cannot use is refused before any trial
+    with mission_errors(mission.path):
+        make_policy(planner, mission)  # a setting this planner cannot use is refused before any trial
     seeds = trial_seeds(mission.seed, mission.trials)
     folder = _prepare_folder(Path(out), mission, planner, resume) if out is not None else None
     # With a folder the trials live on disk (checked readable here, read back for the

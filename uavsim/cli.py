@@ -23,7 +23,7 @@ import numpy as np
 
 from .config import load_mission, parse_value
 from .files import write_atomic, write_json
-from .mission import Mission, MissionError
+from .mission import Mission, MissionError, mission_errors
 from .uav import BASELINE, PLANNERS
 
 
@@ -185,7 +185,8 @@ def _check_work(args: argparse.Namespace, mission: Mission, planners: list[str])
     from .uav import make_policy
 
     for planner in planners:
-        make_policy(planner, mission)
+        with mission_errors(mission.path):
+            make_policy(planner, mission)
 
     work = plan_of_work(mission, 1 if args.scheduler else _workers(args))
     if work.available is not None and work.total_bytes > 0.9 * work.available:

@@ -7,13 +7,14 @@ it is an object defined beside the code that uses it (``World``, ``Dynamics``,
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .declare import setting
+from .declare import SettingError, setting
 
 if TYPE_CHECKING:  # annotations only: the settings' modules import MissionError from here
     from .belief import FilterConfig
@@ -35,6 +36,16 @@ class MissionError(Exception):
 
     def __reduce__(self):  # raised in a worker process, re-raised here
         return MissionError, (self.file, self.key, self.message)
+
+
+@contextmanager
+def mission_errors(path: str | Path):
+    """Domain code raises :class:`uavsim.declare.SettingError` (a key path and what is
+    wrong); within this block it becomes a :class:`MissionError` naming the mission file."""
+    try:
+        yield
+    except SettingError as exc:
+        raise MissionError(path, exc.key, exc.message) from None
 
 
 @dataclass(frozen=True, eq=False)

@@ -25,8 +25,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .declare import SettingError
 from .guidance import Guidance, Plan
-from .mission import Mission, MissionError
+from .mission import Mission
 
 START_DRAWS = 1000  # prior draws per target to find a free-space true start
 PLAN_TRIES = 20  # clear draws tried per target until one has a guidance plan (planned truth)
@@ -65,7 +66,7 @@ class Truth:
         free = ~world.in_obstacle(p0) & ~world.segment_blocked(p0, p1)  # (D, M)
         if not free.any(axis=0).all():
             j = int(np.argmin(free.any(axis=0)))
-            raise MissionError(self.m.path, f"targets[{j}].cov0_si",
+            raise SettingError(f"targets[{j}].cov0_si",
                                f"none of {START_DRAWS} draws from the prior is outside the obstacles "
                                "and clear of them after one step")
         return [draws[free[:, j], j] for j in range(len(means))]
@@ -79,7 +80,7 @@ class Truth:
             try:
                 g, smooth = self.guidance.sensitivity(x, self.m.goals[j], plan, step)
             except RuntimeError as exc:
-                raise MissionError(self.m.path, f"targets[{j}].position_m", f"the truth's plan: {exc}") from None
+                raise SettingError(f"targets[{j}].position_m", f"the truth's plan: {exc}") from None
             if not smooth:
                 self.notes.append(f"{self.m.targets[j].name} (truth): the plan's active constraints change within "
                                   "a millimetre of the start; its sensitivity is the central difference across it")
@@ -103,7 +104,7 @@ class Truth:
                 return plan
             failed.append(plan)
         first = failed[0]
-        raise MissionError(self.m.path, f"targets[{j}].position_m",
+        raise SettingError(f"targets[{j}].position_m",
                            f"no guidance plan for the truth from {len(tries)} start(s) "
                            f"({first.status}: {first.message})")
 

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..declare import setting
-from ..mission import Mission, MissionError
+from ..declare import SettingError, setting
+from ..mission import Mission
 from ..sensing import Sensor
 from ..world import World, inside_polytopes
 
@@ -81,7 +81,7 @@ class FixedSensors(_Static):
     def __init__(self, mission: Mission):
         problem = fixed_sensor_problem(mission.planner.fixed_sensors.positions, mission.world)
         if problem:
-            raise MissionError(mission.path, "planner.fixed_sensors.positions_m",
+            raise SettingError("planner.fixed_sensors.positions_m",
                                f"{problem}; the mission gives no positions and these defaults (0.15, 0.2), (0.8, 0.2), "
                                "(0.5, 0.9) of the area do not fit: set planner.fixed_sensors.positions_m")
         self.observers = mission.planner.fixed_sensors.positions

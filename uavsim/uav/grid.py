@@ -21,8 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..belief.traces import decide
-from ..declare import setting
-from ..mission import Mission, MissionError
+from ..declare import SettingError, setting
+from ..mission import Mission
 from ..world import Region2D, World
 
 
@@ -79,7 +79,7 @@ def admissible(position: np.ndarray, cands: np.ndarray, world: World, uav: UavCo
     return ok
 
 
-def uav_start(rng: np.random.Generator, uav: UavConfig, world: World, mission_path, tries: int = 10_000) -> np.ndarray:
+def uav_start(rng: np.random.Generator, uav: UavConfig, world: World, tries: int = 10_000) -> np.ndarray:
     """The UAV's start: the mission's, or uniform in the region (area) at altitude h,
     outside obstacles (rejection sampling, in batches; fixed draw count per batch)."""
     if not uav.random_start:
@@ -92,7 +92,7 @@ def uav_start(rng: np.random.Generator, uav: UavConfig, world: World, mission_pa
         ok = ~world.in_obstacle(p) & (uav.region.contains(p) if uav.region is not None else True)
         if ok.any():
             return p[np.argmax(ok)]
-    raise MissionError(mission_path, "uav.random_start",
+    raise SettingError("uav.random_start",
                        f"no free start found in {tries} draws: the operating region is (nearly) all obstacle")
 
 
@@ -104,7 +104,7 @@ class OneUav:
         self.position = mission.uav.start.copy()
 
     def reset(self, rng: np.random.Generator) -> None:
-        self.position = uav_start(rng, self.m.uav, self.m.world, self.m.path)
+        self.position = uav_start(rng, self.m.uav, self.m.world)
 
     @property
     def observers(self) -> np.ndarray:

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..declare import setting
-from ..mission import Mission, MissionError
+from ..declare import SettingError, setting
+from ..mission import Mission
 from ..world import Region2D, World
 from .grid import OneUav, UavConfig
 
@@ -106,8 +106,7 @@ class Route:
         return np.array([xy[0], xy[1], self.altitude])
 
 
-def manoeuvre_route(name: str, start: np.ndarray, cfg: ManoeuvreConfig, uav: UavConfig, world: World,
-                    mission_path) -> Route:
+def manoeuvre_route(name: str, start: np.ndarray, cfg: ManoeuvreConfig, uav: UavConfig, world: World) -> Route:
     """Place manoeuvre ``name`` at (or as near as possible to) the start: inside the
     operating region (or area), its loop and the approach leg clear of obstacles at the
     UAV's altitude.  A loop that fits nowhere is a mission error."""
@@ -123,7 +122,7 @@ def manoeuvre_route(name: str, start: np.ndarray, cfg: ManoeuvreConfig, uav: Uav
 
     placed = place_loop(manoeuvre_loop(name, cfg), start[:2], fits)
     if placed is None:
-        raise MissionError(mission_path, "planner.manoeuvres",
+        raise SettingError("planner.manoeuvres",
                            f"the {name} manoeuvre fits nowhere in the operating region clear of obstacles")
     return Route(start, placed, cfg.step, h)
 
@@ -140,7 +139,7 @@ class Manoeuvre(OneUav):
     def reset(self, rng: np.random.Generator) -> None:
         super().reset(rng)
         m = self.m
-        self.route = manoeuvre_route(self.name, self.position, m.planner.manoeuvres, m.uav, m.world, m.path)
+        self.route = manoeuvre_route(self.name, self.position, m.planner.manoeuvres, m.uav, m.world)
 
     def act(self, t: int, belief, action: int | None = None, forecast: list | None = None):
         if action is not None:
