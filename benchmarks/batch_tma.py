@@ -19,10 +19,13 @@ about 13 h for the grid.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import time
+from pathlib import Path
 
 import numpy as np
+from harness import machine, write
 
 from uavsim.estimators import batch, nrpso, oh2021
 
@@ -109,13 +112,11 @@ def compare_dtypes(args) -> None:
 def full_grid(args) -> None:
     from uavsim.cli import main
 
+    started = machine()
     t0 = time.perf_counter()
     load0 = os.getloadavg()[0]
     main(["tma", "reproduce", "oh2021", "--runs", "1000", "--workers", str(args.workers), "--out", args.out])
     wall = time.perf_counter() - t0
-    import json
-    from pathlib import Path
-
     result = json.loads((Path(args.out) / "result.json").read_text())
     cell = next(c for c in result["cells"] if c["target"] == 2 and c["sigma_deg"] == 1.9 and c["scans"] == 600)
     div = cell["methods"]["nr"]["diverged_pct"]
@@ -123,7 +124,10 @@ def full_grid(args) -> None:
     print(f"\ngrid wall time {wall / 60:.1f} min with {args.workers} workers (load average before {load0:.2f}, "
           f"after {os.getloadavg()[0]:.2f}); CPU {result['cpu_seconds'] / 60:.1f} min")
     print(f"NR divergence, target 2, 1.9 deg, K = 600, 1000 runs: {div:.1f}% (paper: about 40%, band "
-          f"{40 - band:.1f}..{40 + band:.1f}; notes' reference 41.3%)")
+          f"{40 - band:.1f}..{40 + band:.1f}; the reference implementation's 41.3%)")
+    write(Path(args.json), {"settings": vars(args), "wall_seconds": wall, "cpu_seconds": result["cpu_seconds"],
+                            "workers": args.workers, "nr_divergence_t2_1p9deg_pct": div}, started)
+    print(f"wrote {args.json}")
 
 
 def main() -> None:
@@ -134,6 +138,7 @@ def main() -> None:
     ap.add_argument("--grid", action="store_true", help="run the full grid once")
     ap.add_argument("--compare-dtypes", action="store_true")
     ap.add_argument("--out", default="runs/oh2021")
+    ap.add_argument("--json", default="runs/oh2021-grid.json", help="--grid: where its figures go (with the machine)")
     args = ap.parse_args()
     if args.grid:
         full_grid(args)

@@ -201,3 +201,21 @@ def test_workers_exit_when_the_main_process_is_killed(tmp_path):
     while _alive(children) and time.monotonic() < deadline:
         time.sleep(0.2)
     assert _alive(children) == []
+
+
+def test_progress_shows_steps_within_unfinished_trials():
+    """3 trials of 10 steps: after 15 steps and one finished trial the line says 1/3 trials
+    and 5 steps of the next; the steps of finished trials are not counted twice."""
+    import io
+
+    from uavsim.progress import Progress
+
+    out = io.StringIO()
+    p = Progress("run", stream=out, interactive=True)
+    p.start(3, 0, 10)
+    p.steps(5)
+    assert "0/3 trials + 5 steps" in out.getvalue()
+    p.steps(10)
+    p.advance()
+    p.steps(15)
+    assert "1/3 trials + 5 steps" in out.getvalue().split("\r")[-1]

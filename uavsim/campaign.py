@@ -218,7 +218,7 @@ _STEPS = None  # a worker's handle on the campaign's shared step counter (_start
 
 
 def _count_step(info) -> None:
-    if _STEPS is not None:
+    if _STEPS is not None and info.t:  # t = 0: the reset, not a step
         with _STEPS.get_lock():
             _STEPS.value += 1
 
@@ -415,7 +415,7 @@ def run_campaign(mission: Mission, planner: str, out: Path | None = None, worker
     try:
         if executor is None:
             guidance = Guidance(mission.world, mission.dynamics, mission.guidance) if todo else None
-            step = (lambda info: progress.step()) if progress and hasattr(progress, "step") else None
+            step = (lambda info: info.t and progress.step()) if progress and hasattr(progress, "step") else None
             for k in todo:
                 finished(run_trial(mission, planner, k, seeds[k], guidance, on_step=step))
         else:  # at most `window` trials in flight: the executor holds no more than that
