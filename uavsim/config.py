@@ -4,13 +4,14 @@ A mission (``missions/*.toml``) names a world (``worlds/*.toml``, path relative 
 mission file) and holds targets, dynamics, sensor, UAV, guidance, filter and planner
 settings.  This module only reads and checks: every settings object is defined beside
 the code that uses it (``World``, ``Dynamics``, ``Sensor``, ``GuidanceConfig``,
-``FilterConfig``, ``UavConfig``, ``PlannerConfig``), and no domain module imports this
-one.  Overrides (``load_mission(path, {"sensor.clutter_rate": 8})``) are the one route
-for command-line flags, sweeps and tests: they replace the file's values before
-validation, so they are checked like the file.  Units are in key names (``sigma_deg``,
-``speed_max_mps``); covariances in SI (m^2, m^2/s^2) carry ``_si``.  Every problem is
-raised as :class:`MissionError`, which names the file and the key path
-(``targets[2].cov0_si``) and says what is wrong.
+``FilterConfig``, ``UavConfig``, ``PlannerConfig``), each of its settings declared there
+once with its key, unit, default and range (:mod:`uavsim.declare`), which this reader
+follows; no domain module imports this one.  Overrides (``load_mission(path,
+{"sensor.clutter_rate": 8})``) are the one route for command-line flags, sweeps and
+tests: they replace the file's values before validation, so they are checked like the
+file.  Units are in key names (``sigma_deg``, ``speed_max_mps``); covariances in SI
+(m^2, m^2/s^2) carry ``_si``.  Every problem is raised as :class:`MissionError`, which
+names the file and the key path (``targets[2].cov0_si``) and says what is wrong.
 """
 
 from __future__ import annotations
@@ -37,7 +38,6 @@ from .uav.fixed import FIXED_FRACTIONS, fixed_sensor_problem
 from .uav.manoeuvres import default_sizes
 from .world import GoalRegion, Region2D, World, free_space, ground_footprints, inside_polytopes
 
-_MISSING = REQUIRED
 MAX_FILE_BYTES = 16 * 2**20  # a mission or world file larger than this is not one a person wrote
 MAX_COORDINATE_M = 1e7  # 10 000 km: an area beyond this is a unit mistake, and squares of it overflow
 MAX_ACCELERATION = 100.0  # m/s^2: force_max_n / mass_kg above 10 g is not a ground vehicle
@@ -66,20 +66,16 @@ class _Table:
         self.known.add(key)
         if key in self.data:
             return self.data[key]
-        if default is _MISSING:
+        if default is REQUIRED:
             hint = difflib.get_close_matches(key, [k for k in self.data if k not in self.known], 1)
             self.fail(key, "missing required key" + (f" (found '{hint[0]}'; misspelt?)" if hint else ""))
         return default
-
-    def number(self, key, default=_MISSING, *, lo=None, hi=None, lo_open=False, integer=False):
-        spec = Spec(key, "integer" if integer else "number", "", default=default, lo=lo, hi=hi, lo_open=lo_open)
-        return self.read(spec)
 
     def read(self, spec: Spec, default: Any = None) -> Any:
         """The value of a declared setting, checked against its declaration; ``default``
         replaces a derived default (None: the spec's own default)."""
         key = spec.key
-        value = self._get(key, _MISSING if spec.required else None)
+        value = self._get(key, REQUIRED if spec.required else None)
         if key not in self.data:  # the default: declared, or derived (None: the class derives it)
             value = default if spec.derived else spec.default
             if value is None or spec.derived:
@@ -118,7 +114,7 @@ class _Table:
             self.fail(key, f"an integer of {len(str(abs(value)))} digits is too large for a number")
         return int(value) if integer else float(value)
 
-    def string(self, key, default=_MISSING, choices=None) -> str:
+    def string(self, key, default=REQUIRED, choices=None) -> str:
         value = self._get(key, default)
         if not isinstance(value, str):
             self.fail(key, f"expected a string, got {_describe(value)}")
@@ -126,10 +122,10 @@ class _Table:
             self.fail(key, f"must be one of {', '.join(choices)}; got '{value}'")
         return value
 
-    def array(self, key, shape: tuple[int | None, ...], default=_MISSING) -> np.ndarray:
+    def array(self, key, shape: tuple[int | None, ...], default=REQUIRED) -> np.ndarray:
         """A nested list of finite numbers of the given shape (None: any length >= 1)."""
         value = self._get(key, default)
-        if value is default and default is not _MISSING:
+        if value is default and default is not REQUIRED:
             return np.asarray(value, dtype=float)
         arr = _numeric_array(value)
         want = "x".join("n" if s is None else str(s) for s in shape)
@@ -144,7 +140,7 @@ class _Table:
     def covariance(self, key: str, n: int, hi: float | None = None) -> np.ndarray:
         """An n x n covariance, written as its diagonal (n variances) or in full; no
         variance above ``hi``."""
-        value = self._get(key, _MISSING)
+        value = self._get(key, REQUIRED)
         arr = _numeric_array(value)
         if arr is not None and arr.shape == (n,):
             arr = np.diag(arr)
@@ -169,7 +165,7 @@ class _Table:
     def table(self, key: str, optional: bool = False, empty: bool = False) -> "_Table | None":
         """A sub-table; if ``optional`` and absent, None (or, with ``empty``, an empty table
         whose settings all take their defaults)."""
-        value = self._get(key, None if optional else _MISSING)
+        value = self._get(key, None if optional else REQUIRED)
         if value is None and key in self.data:
             self.fail(key, "expected a table, got None")
         if value is None:
@@ -179,7 +175,7 @@ class _Table:
         return _Table(self.file, self.path(key), value)
 
     def tables(self, key: str, optional: bool = False) -> list["_Table"]:
-        value = self._get(key, [] if optional else _MISSING)
+        value = self._get(key, [] if optional else REQUIRED)
         if not isinstance(value, list) or not all(isinstance(v, dict) for v in value):
             self.fail(key, f"expected an array of tables ([[{key}]]), got {_describe(value)}")
         return [_Table(self.file, f"{self.path(key)}[{i}]", v) for i, v in enumerate(value)]

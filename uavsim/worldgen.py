@@ -27,8 +27,9 @@ What a world holds (each a deliberate test of guidance, sensing or validation):
   sensors inside the area and outside obstacles, near the paper's (0.15, 0.2),
   (0.8, 0.2), (0.5, 0.9) of the area.
 
-The dynamics, sensor, UAV grid, guidance and filter settings are the paper mission's
-(004_22b452551a772073.txt Sec. VI-A; ``missions/paper.toml``), written into the mission.
+The dynamics, sensor, UAV grid, guidance and filter settings are the declared defaults
+(:mod:`uavsim.declare`: the paper mission's, [Papaioannou2023] Sec. VI-A), written into
+the mission by :func:`uavsim.writer.mission_text`.
 """
 
 from __future__ import annotations
