@@ -38,9 +38,10 @@ class SettingError(ValueError):
 
 @dataclass(frozen=True)
 class Spec:
-    """One setting's declaration.  ``default`` is in the file's unit (``REQUIRED``:
-    required; ``None`` with ``derived``: computed from the world, ``derived`` says how).
-    ``to_si`` converts the file's value to the field's (degrees to radians)."""
+    """One setting's declaration.  ``default`` is in the file's unit (``REQUIRED``: the
+    file must give it, unless ``derived`` says how the reader or the class computes it
+    from the world or other settings).  ``to_si`` converts the file's value to the
+    field's (degrees to radians), ``from_si`` back for the writer."""
 
     key: str
     kind: str
@@ -98,8 +99,9 @@ def setting(key: str, default: Any = REQUIRED, *, doc: str, unit: str = "", kind
             choices: tuple[str, ...] | None = None, shape: tuple[int | None, ...] | None = None,
             to_si: Callable | None = None, from_si: Callable | None = None, derived: str = "") -> Any:
     """A dataclass field read from the mission file as ``key`` (see :class:`Spec`).  The
-    field's own default is the declared one converted to SI (arrays and derived defaults
-    leave the field without one: the reader always passes them)."""
+    field's own default is the declared one converted to SI (an array's through a
+    factory); a derived setting's field defaults to None (the reader passes the derived
+    value, or the class derives it in ``__post_init__``)."""
     if kind is None:
         kind = ("string" if choices or isinstance(default, str) else "boolean" if isinstance(default, bool)
                 else "integer" if isinstance(default, int) else "number")
