@@ -166,16 +166,8 @@ def _progress(args: argparse.Namespace, label: str):
 
 
 def _workers(args: argparse.Namespace) -> int:
-    """``--workers`` checked (a warning above the core count: they would share cores)."""
-    cores = os.cpu_count() or 1
-    if args.workers is not None and args.workers < 1:
-        raise UsageError("--workers must be at least 1")
-    if args.workers is not None and args.workers > cores:
-        print(f"warning: --workers {args.workers} on a machine with {cores} cores: the workers share them, "
-              "each with its own memory", file=sys.stderr)
-    if args.scheduler is not None and not args.scheduler.strip():
-        raise UsageError("--scheduler needs an address (tcp://host:8786)")
-    return args.workers or cores
+    """``--workers`` as checked by :func:`_check_work` (default: every core)."""
+    return args.workers or os.cpu_count() or 1
 
 
 def _check_work(args: argparse.Namespace, mission: Mission, planners: list[str]) -> None:
@@ -184,6 +176,14 @@ def _check_work(args: argparse.Namespace, mission: Mission, planners: list[str])
     from .campaign import plan_of_work
     from .uav import make_policy
 
+    cores = os.cpu_count() or 1
+    if args.workers is not None and args.workers < 1:
+        raise UsageError("--workers must be at least 1")
+    if args.scheduler is not None and not args.scheduler.strip():
+        raise UsageError("--scheduler needs an address (tcp://host:8786)")
+    if args.workers is not None and args.workers > cores:
+        print(f"warning: --workers {args.workers} on a machine with {cores} cores: the workers share them, "
+              "each with its own memory", file=sys.stderr)
     for planner in planners:
         with mission_errors(mission.path):
             make_policy(planner, mission)

@@ -36,7 +36,7 @@ from .targets import TARGET_KEYS, Dynamics, Target
 from .uav import FixedSensorsConfig, LookaheadConfig, ManoeuvreConfig, PlannerConfig, UavConfig
 from .uav.fixed import FIXED_FRACTIONS, fixed_sensor_problem
 from .uav.manoeuvres import default_sizes
-from .world import GoalRegion, Region2D, World, free_space, ground_footprints, inside_polytopes
+from .world import GoalRegion, Region2D, World, fmt, free_space, ground_footprints, inside_polytopes
 
 MAX_FILE_BYTES = 16 * 2**20  # a mission or world file larger than this is not one a person wrote
 MAX_COORDINATE_M = 1e7  # 10 000 km: an area beyond this is a unit mistake, and squares of it overflow
@@ -257,7 +257,7 @@ def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> Wo
     lo, hi = area.array("min_m", (3,)), area.array("max_m", (3,))
     for key, corner in (("min_m", lo), ("max_m", hi)):
         if np.any(np.abs(corner) > MAX_COORDINATE_M):
-            area.fail(key, f"coordinates beyond +-{MAX_COORDINATE_M:g} m are not a world (got {_fmt(corner)})")
+            area.fail(key, f"coordinates beyond +-{MAX_COORDINATE_M:g} m are not a world (got {fmt(corner)})")
     if np.any(hi <= lo):
         area.fail("max_m", f"must exceed min_m in every axis, got min {lo.tolist()} max {hi.tolist()}")
     area.finish()
@@ -297,19 +297,15 @@ def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> Wo
 
 def _check_obstacle_in_area(t: _Table, name: str, o_lo, o_hi, lo, hi) -> None:
     """An obstacle must lie inside the area: name it and say by how much it overhangs."""
-    area = f"the area {_fmt(lo)}..{_fmt(hi)}"
+    area = f"the area {fmt(lo)}..{fmt(hi)}"
     if np.any(o_hi <= lo) or np.any(o_lo >= hi):
-        t.fail("min_m", f"obstacle '{name}' {_fmt(o_lo)}..{_fmt(o_hi)} lies entirely outside {area}")
+        t.fail("min_m", f"obstacle '{name}' {fmt(o_lo)}..{fmt(o_hi)} lies entirely outside {area}")
     below, above = lo - o_lo, o_hi - hi
     if np.any(below > 0) or np.any(above > 0):
         parts = [f"{d:g} m {side} {axis} {end}" for ds, side, end in ((below, "below", "min"), (above, "beyond", "max"))
                  for axis, d in zip("xyz", ds) if d > 0]
         t.fail("max_m" if np.any(above > 0) else "min_m",
-               f"obstacle '{name}' {_fmt(o_lo)}..{_fmt(o_hi)} extends outside {area}: {', '.join(parts)}")
-
-
-def _fmt(v) -> str:
-    return "[" + ", ".join(f"{x:g}" for x in np.asarray(v).ravel()) + "]"
+               f"obstacle '{name}' {fmt(o_lo)}..{fmt(o_hi)} extends outside {area}: {', '.join(parts)}")
 
 
 def _check_point(world: World, table: _Table, key: str, point: np.ndarray, what: str, region=None):
@@ -447,7 +443,7 @@ def _uav(t: _Table, world: World) -> UavConfig:
     uav = _section(t, UavConfig, {"start": start, "altitude": altitude}, region=region)
     if uav.n_r * uav.step > float(np.max(world.area_hi[:2] - world.area_lo[:2])):
         t.fail("step_m", f"n_r x step_m = {uav.n_r * uav.step:g} m is longer than the area "
-                         f"({_fmt(world.area_hi[:2] - world.area_lo[:2])} m)")
+                         f"({fmt(world.area_hi[:2] - world.area_lo[:2])} m)")
     if given_start or not uav.random_start:
         _check_point(world, t, "start_m", uav.start, "UAV start" + ("" if given_start else
                      " (the default, 0.15 and 0.2 of the region; set uav.start_m)"), region)
@@ -559,4 +555,4 @@ def _check_goals_reachable(path: Path, world: World, dynamics: Dynamics, guidanc
             walls = np.intersect1d(space.border(start_labels), space.border(goal_labels))
             raise MissionError(path, f"targets[{i}].goal",
                                f"goal region '{goal.name}' cannot be reached from target '{target.name}' at "
-                               f"{_fmt(target.mean0[:2])}: obstacles {names(walls)} ({inflated}) close every path")
+                               f"{fmt(target.mean0[:2])}: obstacles {names(walls)} ({inflated}) close every path")

@@ -24,6 +24,11 @@ CUBOID_NORMALS = np.array(
 )
 
 
+def fmt(v) -> str:
+    """A vector for messages: ``[150, 200]``."""
+    return "[" + ", ".join(f"{x:g}" for x in np.asarray(v).ravel()) + "]"
+
+
 def cuboid_halfspaces(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Half-space form of axis-aligned cuboids.
 

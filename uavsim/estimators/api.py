@@ -24,6 +24,7 @@ import warnings
 import numpy as np
 
 from . import plkf, plmmse
+from .constraints import _check
 
 CONVENTIONS = ("north-cw", "east-ccw")
 SIGMA_MAX_RAD = 0.5  # a bearing noise above this (29 deg) is far more likely degrees by mistake
@@ -36,21 +37,16 @@ class DegenerateUpdateWarning(UserWarning):
 def convert(bearings, convention: str, to: str) -> np.ndarray:
     """Bearings (rad) from one convention to the other, wrapped to ``(-pi, pi]``
     (the two are mirror images about the 45-degree line: ``b' = pi/2 - b``)."""
-    _choice("convention", convention, CONVENTIONS)
-    _choice("to", to, CONVENTIONS)
+    _check("convention", convention, CONVENTIONS)
+    _check("to", to, CONVENTIONS)
     b = np.asarray(bearings, dtype=float)
     b = b if convention == to else np.pi / 2 - b
     return np.pi - np.mod(np.pi - b, 2 * np.pi)
 
 
-def _choice(name: str, value, allowed) -> None:
-    if value not in allowed:
-        raise ValueError(f"{name} must be one of {', '.join(map(repr, allowed))}; got {value!r}")
-
-
 def check_sigma(sigma, units: str = "rad") -> float:
     """A bearing noise std in radians (``units="deg"`` converts)."""
-    _choice("units", units, ("rad", "deg"))
+    _check("units", units, ("rad", "deg"))
     s = float(np.radians(sigma) if units == "deg" else sigma) if np.ndim(sigma) == 0 else np.nan
     if not np.isfinite(s) or s <= 0:
         raise ValueError(f"sigma must be a positive number of {units}; got {sigma!r}")
@@ -64,7 +60,7 @@ def check_bearings(bearings, convention: str, to: str, units: str = "rad", missi
                    shape: tuple | None = None) -> np.ndarray:
     """Bearings as the code behind wants them: radians, convention ``to``.  ``missing``:
     NaN marks a missed scan (recursive filters), else every value must be finite."""
-    _choice("units", units, ("rad", "deg"))
+    _check("units", units, ("rad", "deg"))
     b = np.asarray(bearings, dtype=float) if not isinstance(bearings, (str, bytes)) else None
     if b is None or b.ndim == 0 and shape is not None and len(shape) > 0:
         raise ValueError(f"bearings must be an array of numbers of shape {shape}; got {bearings!r}")
@@ -131,8 +127,8 @@ class _Recursive:
     internal = "east-ccw"  # papers 001-002: the code behind takes bearings from +x
 
     def __init__(self, x0, P0, q, dt: float, convention: str, units: str):  # noqa: N803 (the papers' P)
-        _choice("convention", convention, CONVENTIONS)
-        _choice("units", units, ("rad", "deg"))
+        _check("convention", convention, CONVENTIONS)
+        _check("units", units, ("rad", "deg"))
         self.x, self.P = check_state(x0, P0)
         q_arr = np.asarray(q, dtype=float)
         if q_arr.shape not in ((), (2,)) or not np.all(np.isfinite(q_arr)) or np.any(q_arr < 0):
@@ -156,14 +152,18 @@ class _Recursive:
             self.missed += 1
             return True
         beta = check_bearings([bearing], self.convention, self.internal, self.units, shape=(1,))
-        s = check_points(observer, 1, "observer")
-        x, p, ok = self._update(self.x[None], self.P[None], beta, s)
-        self.x, self.P = x[0], p[0]
-        if not ok[0]:
-            self.degenerate += 1
+        ok = self._apply(beta, check_points(observer, 1, "observer"))
+        if not ok:
             warnings.warn(f"{type(self).__name__}: a degenerate update was skipped (an innovation variance that is "
                           "not positive: a prior wide against the range, or the observer on the estimate)",
                           DegenerateUpdateWarning, stacklevel=2)
+        return ok
+
+    def _apply(self, beta: np.ndarray, s: np.ndarray) -> bool:
+        """An update with a checked bearing ``(1,)`` in the internal convention from ``s (1, 2)``."""
+        x, p, ok = self._update(self.x[None], self.P[None], beta, s)
+        self.x, self.P = x[0], p[0]
+        self.degenerate += not ok[0]
         return bool(ok[0])
 
     def filter(self, times, bearings, observers) -> tuple[np.ndarray, np.ndarray]:
@@ -172,16 +172,17 @@ class _Recursive:
         ``covs (K, 4, 4)``, the estimate after each scan."""
         b = np.asarray(bearings, dtype=float)
         t = check_times(times, b.shape[0] if b.ndim == 1 else None)
-        check_bearings(b, self.convention, self.internal, self.units, missing=True, shape=(len(t),))
+        beta = check_bearings(b, self.convention, self.internal, self.units, missing=True, shape=(len(t),))
         s = check_points(observers, len(t), "observers")
         tracks, covs, before = np.empty((len(t), 4)), np.empty((len(t), 4, 4)), self.degenerate
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", DegenerateUpdateWarning)
-            for k in range(len(t)):
-                if k:
-                    self.predict(t[k] - t[k - 1])
-                self.update(None if np.isnan(b[k]) else b[k], s[k])
-                tracks[k], covs[k] = self.x, self.P
+        for k in range(len(t)):  # a recursion over scans: each step needs the last
+            if k:
+                self.predict(t[k] - t[k - 1])
+            if np.isnan(beta[k]):
+                self.missed += 1
+            else:
+                self._apply(beta[k:k + 1], s[k:k + 1])
+            tracks[k], covs[k] = self.x, self.P
         if self.degenerate > before:
             warnings.warn(f"{type(self).__name__}: {self.degenerate - before} of {len(t)} updates were degenerate "
                           "and skipped", DegenerateUpdateWarning, stacklevel=2)
@@ -196,7 +197,7 @@ class PLKF(_Recursive):
 
     def __init__(self, sigma, x0, P0, q=0.0, dt: float = 1.0, kind: str = "plkf",  # noqa: N803
                  convention: str = "north-cw", units: str = "rad", v_min: float = 0.0, v_max: float = np.inf):
-        _choice("kind", kind, plkf.FILTERS)
+        _check("kind", kind, plkf.FILTERS)
         super().__init__(x0, P0, q, dt, convention, units)
         self.sigma, self.kind = check_sigma(sigma, units), kind
         self._options = {"v_min": v_min, "v_max": v_max} if kind == "vc-plkf" else {}
@@ -215,7 +216,7 @@ class PLMMSE(_Recursive):
 
     def __init__(self, noise, x0, P0, q=0.0, dt: float = 1.0, kind: str = "pl-mmse",  # noqa: N803
                  convention: str = "north-cw", units: str = "rad", constraint=None):
-        _choice("kind", kind, plmmse.FILTERS)
+        _check("kind", kind, plmmse.FILTERS)
         super().__init__(x0, P0, q, dt, convention, units)
         if not isinstance(noise, plmmse.GaussianMixture):
             noise = plmmse.GaussianMixture((1.0,), (check_sigma(noise, units) ** 2,))
@@ -251,7 +252,7 @@ class ConstrainedMLE:
                  units: str = "rad"):
         from .intelligence import Disc
 
-        _choice("convention", convention, CONVENTIONS)
+        _check("convention", convention, CONVENTIONS)
         if order not in (1, 2):
             raise ValueError(f"order must be 1 (constant velocity) or 2 (constant acceleration); got {order!r}")
         for d in (*inside, *outside):

@@ -48,6 +48,7 @@ import numpy as np
 
 from . import api
 from .batch import BearingData, Evaluator, cholesky_solve, gauss_newton, polynomial_basis, prepare, spd_inverse
+from .constraints import _check
 
 
 def wrap(a: np.ndarray) -> np.ndarray:
@@ -297,7 +298,7 @@ class BatchTMA:
                  convention: str = "north-cw", units: str = "rad"):
         if method not in METHODS:
             raise ValueError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
-        api._choice("convention", convention, api.CONVENTIONS)
+        _check("convention", convention, api.CONVENTIONS)
         self._sigma = api.check_sigma(sigma, units)
         self.sigma, self.method, self.rng, self.convention, self.units = sigma, method, rng, convention, units
         self.n_candidates, self.max_iter, self.tol, self.hessian = n_candidates, max_iter, tol, hessian

@@ -15,7 +15,7 @@ import numpy as np
 from ..declare import SettingError, setting
 from ..mission import Mission
 from ..sensing import Sensor
-from ..world import World, inside_polytopes
+from ..world import World, fmt, inside_polytopes
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,14 +51,10 @@ def fixed_sensor_problem(positions: np.ndarray, world: World) -> str | None:
         return None
     k = int(bad[0])
     if not inside_area[k]:
-        area = f"{_fmt(world.area_lo[:2])}..{_fmt(world.area_hi[:2])}"
-        return f"fixed sensor {k} at {_fmt(xy[k])} is outside the area {area}"
+        area = f"{fmt(world.area_lo[:2])}..{fmt(world.area_hi[:2])}"
+        return f"fixed sensor {k} at {fmt(xy[k])} is outside the area {area}"
     hit = inside_polytopes(positions[k], world.normals, world.offsets)
-    return f"fixed sensor {k} at {_fmt(xy[k])} is inside obstacle '{world.obstacle_names[int(np.argmax(hit))]}'"
-
-
-def _fmt(v) -> str:
-    return "[" + ", ".join(f"{x:g}" for x in np.asarray(v).ravel()) + "]"
+    return f"fixed sensor {k} at {fmt(xy[k])} is inside obstacle '{world.obstacle_names[int(np.argmax(hit))]}'"
 
 
 class _Static:
