@@ -1,4 +1,4 @@
-"""Equality constraints on an estimate (001_02b1680e6b11a133.txt Sec. 3-4, Eq. 24-63, 81-83)."""
+"""Equality constraints on an estimate ([Li2022] Sec. 3-4, Eq. 24-63, 81-83)."""
 
 import numpy as np
 import pytest

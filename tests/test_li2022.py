@@ -1,4 +1,4 @@
-"""The study of 001_02b1680e6b11a133.txt Sec. 5 (Tables 5, 7, 9; Figs. 4-15).
+"""The study of [Li2022] Sec. 5 (Tables 5, 7, 9; Figs. 4-15).
 
 The study runs with the paper's M0 = 1000 runs (seed 2021, about 6 s for the three
 scenarios).  Monte-Carlo spread at that size: the relative standard error of a

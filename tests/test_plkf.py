@@ -1,4 +1,4 @@
-"""The PLKF family, the CRLB and the study of 002_4e3cd4c0a7df16d8.txt (Huang et al. 2021).
+"""The PLKF family, the CRLB and the study of [Huang2021] (Huang et al. 2021).
 
 Hand steps use one prediction ``x- = [10, 0, 1, 0]``, ``P- = I``, observer ``s = (-10, 0)``,
 measured bearing 0.1 rad, sigma 0.05 rad: the predicted range is 20 m, so the PLKF's
@@ -267,7 +267,7 @@ def test_tma_reproduce_command(tmp_path, capsys):
 
 
 def test_ub_plkf_is_a_bearing_ekf_with_a_scaled_jacobian():
-    """plkf.py docstring (../shared/notes/paper002-ub-origin.md): the UB update equals an EKF
+    """plkf.py docstring: the UB update equals an EKF
     update on the bearing with Jacobian alpha * grad beta, alpha = -d^ / (u^ . s), noise
     sigma^2 and innovation sin delta + (cos delta - 1) (n^ . s) / (u^ . s); checked on random
     geometries (alpha from -16 to 82, median |alpha| 2.5)."""

@@ -1,4 +1,4 @@
-"""PL-MMSE under Gaussian-mixture noise and its baselines (001_02b1680e6b11a133.txt Sec. 2, Table 1).
+"""PL-MMSE under Gaussian-mixture noise and its baselines ([Li2022] Sec. 2, Table 1).
 
 Hand steps use 002's test geometry (``tests/test_plkf.py``): prediction ``x- = [10, 0, 1, 0]``,
 ``P- = I``, observer ``s = (-10, 0)``, measured bearing 0.1 rad, a one-component mixture

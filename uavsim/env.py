@@ -12,7 +12,7 @@
             break
 
 One episode is one trial of the mission (:class:`uavsim.sim.Simulation` with the
-``optimized`` policy's grid moves, 004_22b452551a772073.txt Eq. 3), ``mission.steps``
+``optimized`` policy's grid moves, [Papaioannou2023] Eq. 3), ``mission.steps``
 steps long (then ``truncated``; nothing terminates an episode early).
 
 * **Action**: the index of the UAV's next grid move among the ``1 + N_r N_theta``

@@ -1,6 +1,6 @@
 """What a Monte-Carlo study measures: RMSE, the no-information ratio, NEES consistency.
 
-* **RMSE** (004_22b452551a772073.txt Sec. VI-B): at step t,
+* **RMSE** ([Papaioannou2023] Sec. VI-B): at step t,
   ``eps_t = sqrt(mean_n |x^pos_hat_t(n) - x^pos_t(n)|^2)`` over the N trials, (x, y)
   positions, per target; studies average it over the targets.
 * **No-information ratio**: a planner's time-averaged RMSE over that of the same filter

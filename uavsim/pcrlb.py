@@ -1,6 +1,6 @@
 """The tracking accuracy floor: posterior Cramer-Rao lower bound of the closed loop.
 
-For each target j of 004_22b452551a772073.txt, along the flown sensor path, the bound
+For each target j of [Papaioannou2023], along the flown sensor path, the bound
 ``P_k = J_k^-1`` on the error covariance of any estimator of ``x_k`` from all scans up to
 k, with the missed detections and Poisson clutter of Eq. (4).  Bearings follow 004:
 ``l(x, s) = atan2(dx, dy)`` from +y (north), clockwise, ``d = x - s``.
@@ -185,7 +185,7 @@ def information_reduction_factor(sigma: float, p_detect: float, clutter_rate: fl
 
     References
     ----------
-    004_22b452551a772073.txt Eq. (4), (10); Niu, Willett & Bar-Shalom, IEEE TSP 2001;
+    [Papaioannou2023] Eq. (4), (10); Niu, Willett & Bar-Shalom, IEEE TSP 2001;
     Hernandez, Ristic, Farina & Timmoneri, IEEE TSP 52(9), 2004, Sec. III-A.
     """
     _check_sensor(sigma, p_detect, clutter_rate)
@@ -213,7 +213,7 @@ def bearing_gradients(targets: np.ndarray, observers: np.ndarray, min_range: flo
 
     References
     ----------
-    004_22b452551a772073.txt Eq. (4).
+    [Papaioannou2023] Eq. (4).
     """
     d = targets[..., :, None, :2] - observers[..., None, :, :2]  # (..., M, S, 2)
     r2 = np.maximum((d**2).sum(-1, keepdims=True), min_range**2)
@@ -376,7 +376,7 @@ def pcrlb_for_trials(truth: np.ndarray, observers: np.ndarray, dynamics: Dynamic
 
     References
     ----------
-    004_22b452551a772073.txt Eq. (1)-(2), (4), (10); module docstring.
+    [Papaioannou2023] Eq. (1)-(2), (4), (10); module docstring.
     """
     truth, observers = _as_trials(truth, "truth", 2), _as_trials(observers, "observers", 2)
     if truth.shape[:2] != observers.shape[:2]:
@@ -408,7 +408,7 @@ def pcrlb_planned(sensitivity: np.ndarray, truth: np.ndarray, observers: np.ndar
 
     References
     ----------
-    004_22b452551a772073.txt Eq. (4), (10), Sec. VI-B (the noise-free truth); Van Trees &
+    [Papaioannou2023] Eq. (4), (10), Sec. VI-B (the noise-free truth); Van Trees &
     Bell, Bayesian Bounds for Parameter Estimation and Nonlinear Filtering/Tracking, 2007.
     """
     truth, observers = _as_trials(truth, "truth", 2), _as_trials(observers, "observers", 2)

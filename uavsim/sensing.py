@@ -1,6 +1,6 @@
 """Bearing sensor with missed detections and Poisson clutter.
 
-004_22b452551a772073.txt Eq. (4) and Sec. III-C: on target j's channel the UAV at s
+[Papaioannou2023] Eq. (4) and Sec. III-C: on target j's channel the UAV at s
 receives, each step,
 
 * with probability ``p_D`` one target bearing ``phi = l(x, s) + w``, ``w ~ N(0, sigma^2)``,
@@ -38,7 +38,7 @@ def bearing(target: np.ndarray, sensor: np.ndarray) -> np.ndarray:
 
     References
     ----------
-    004_22b452551a772073.txt Eq. (4), ``tan^-1((x_x - s_x) / (x_y - s_y))`` taken as the
+    [Papaioannou2023] Eq. (4), ``tan^-1((x_x - s_x) / (x_y - s_y))`` taken as the
     four-quadrant ``atan2(dx, dy)``.
     """
     t, s = np.asarray(target), np.asarray(sensor)

@@ -1,4 +1,4 @@
-"""The closed loop of 004_22b452551a772073.txt Sec. V-VI, one trial at a time.
+"""The closed loop of [Papaioannou2023] Sec. V-VI, one trial at a time.
 
 Each step t -> t+1:
 

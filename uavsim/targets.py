@@ -1,6 +1,6 @@
 """Ground-target motion model.
 
-004_22b452551a772073.txt Eq. (1)-(2)::
+[Papaioannou2023] Eq. (1)-(2)::
 
     x_t = A x_{t-1} + B u_{t-1} + nu_{t-1},   nu ~ N(0, Q)
     A = [[I, dt I], [0, (1 - eps) I]],        B = [[0], [dt/m I]]
@@ -32,7 +32,7 @@ def transition_matrices(dt: float, friction: float, mass: float) -> tuple[np.nda
 
     References
     ----------
-    004_22b452551a772073.txt Eq. (2).
+    [Papaioannou2023] Eq. (2).
     """
     eye, zero = np.eye(3), np.zeros((3, 3))
     a = np.block([[eye, dt * eye], [zero, (1.0 - friction) * eye]])

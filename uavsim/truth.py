@@ -1,4 +1,4 @@
-"""The true targets of one trial (004_22b452551a772073.txt Sec. III-A, VI-B).
+"""The true targets of one trial ([Papaioannou2023] Sec. III-A, VI-B).
 
 Each trial draws every target's true initial state from its prior ``N(mu_0, Sigma_0)``
 (restricted to starts outside every obstacle that stay out during their first step

@@ -1,6 +1,6 @@
 """Surveillance area, cuboid obstacles, goal regions and the UAV operating region.
 
-Model (004_22b452551a772073.txt Sec. III-D): obstacle n is a cuboid given by six
+Model ([Papaioannou2023] Sec. III-D): obstacle n is a cuboid given by six
 half-spaces with outward unit normals ``a_i^n`` and offsets ``b_i^n``; a point p is
 inside it when ``a_i^n . p <= b_i^n`` for all six faces, and a collision is avoided
 when Eq. (5) holds, ``exists i: a_i^n . p > b_i^n``.  Obstacles are closed sets here:
@@ -43,7 +43,7 @@ def cuboid_halfspaces(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.nd
 
     References
     ----------
-    004_22b452551a772073.txt Sec. III-D, the six inequalities before Eq. (5).
+    [Papaioannou2023] Sec. III-D, the six inequalities before Eq. (5).
     """
     lo, hi = np.atleast_2d(lo).astype(float), np.atleast_2d(hi).astype(float)
     normals = np.broadcast_to(CUBOID_NORMALS, (lo.shape[0], 6, 3)).copy()
@@ -103,7 +103,7 @@ class GoalRegion:
 
     References
     ----------
-    004_22b452551a772073.txt Sec. III-A and Eq. (7) (centroid ``G_o^j``).
+    [Papaioannou2023] Sec. III-A and Eq. (7) (centroid ``G_o^j``).
     """
 
     name: str

@@ -1,4 +1,4 @@
-"""Per-target beliefs (004_22b452551a772073.txt Sec. V-A): one interface, two kinds.
+"""Per-target beliefs ([Papaioannou2023] Sec. V-A): one interface, two kinds.
 
 A :class:`Belief` holds all M targets' posteriors.  Each step the closed loop predicts it
 with the dynamics and each target's planned force (Eq. 9a), updates it with the scans of

@@ -1,6 +1,6 @@
 """Gaussian beliefs: 002's pseudo-linear Kalman filters in place of particles.
 
-M targets tracked by one of 002_4e3cd4c0a7df16d8.txt's filters (``filter.kind``;
+M targets tracked by one of [Huang2021]'s filters (``filter.kind``;
 clutter-free missions only, enforced by the mission validation).  The 6-D state
 ``[x, y, z, vx, vy, vz]`` is predicted exactly (Eq. 9a in moments, :meth:`Dynamics.predict`);
 a detection updates it with 002's pseudo-linear step on the horizontal position

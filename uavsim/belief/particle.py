@@ -1,6 +1,6 @@
 """Per-target particle filters with the clutter likelihood of Eq. (10).
 
-004_22b452551a772073.txt Sec. V-A.  All M targets are filtered at once: particles
+[Papaioannou2023] Sec. V-A.  All M targets are filtered at once: particles
 ``(M, N, 6)``, log-weights ``(M, N)``.  No Python loop runs over particles.
 
 * Predict (Eq. 9a): ``x <- A x + B u_j + nu``, ``nu ~ N(0, Q)``; ``u_j`` is the first
@@ -55,7 +55,7 @@ def log_likelihood(bearings: np.ndarray, valid: np.ndarray, expected: np.ndarray
 
     References
     ----------
-    004_22b452551a772073.txt Eq. (10).
+    [Papaioannou2023] Eq. (10).
     """
     return _log_likelihood(wrap_angle(bearings), valid, wrap_angle(expected), sensor)
 

@@ -1,6 +1,6 @@
 """UAV monitoring control: the covariance-trace decision rule.
 
-004_22b452551a772073.txt Sec. V-B, Eq. (12)-(13).  For every admissible next position s
+[Papaioannou2023] Sec. V-B, Eq. (12)-(13).  For every admissible next position s
 and every target j, the ideal (noise-free, no clutter) bearing from the predicted mean,
 ``z_j(s) = l(mu_j, s)`` (Eq. 12), re-weights target j's predicted particles by
 ``N(z_j(s); l(x_i, s), sigma^2)``; the pseudo-posterior covariance trace follows from

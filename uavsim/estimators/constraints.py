@@ -1,6 +1,6 @@
 """Equality constraints on a state estimate, batched over runs (paper 001, Sec. 3-4).
 
-001_02b1680e6b11a133.txt: the mean-square method (Eq. 25-32) and the estimate projection
+[Li2022]: the mean-square method (Eq. 25-32) and the estimate projection
 (Eq. 33-38) for linear constraints ``G x = g`` (Simon & Chia, its ref. [33]); the linear
 approximation (Eq. 40-42) and the second-order approximation (Eq. 43-63, Yang & Blasch,
 its ref. [34]) for a scalar nonlinear constraint ``h(x) = q`` (Eq. 39); the arc's

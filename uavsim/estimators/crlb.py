@@ -1,6 +1,6 @@
 """Recursive Cramer-Rao lower bound and its velocity-constrained version.
 
-002_4e3cd4c0a7df16d8.txt Appendix B.  Bearings ``beta = atan2(dy, dx)``, state
+[Huang2021] Appendix B.  Bearings ``beta = atan2(dy, dx)``, state
 ``[px, py, vx, vy]``.  Re-derived where the text is ambiguous:
 
 * Eq. (B1)-(B5), Tichavsky's recursion with linear dynamics:

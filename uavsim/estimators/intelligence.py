@@ -1,7 +1,7 @@
 """Intelligence-aware batch MLE: bearings plus "the track stays inside these sets and
 outside those", and its Cramer-Rao bounds.
 
-000_4fddb3aadaa82026.txt (Oliva, Farina, Setola 2021), Sec. 2.  A target with
+[Oliva2021] (Oliva, Farina, Setola 2021), Sec. 2.  A target with
 ``p(t) = Q(t) psi`` (Eq. 11-12; :func:`.batch.polynomial_basis`, order 2:
 ``psi = [x0, y0, vx, vy, ax, ay]``) is seen in bearings ``z_k = h_k(psi) + w_k`` from +x,
 anticlockwise, ``h = atan2(dy, dx)`` (Eq. 3, :mod:`.batch`'s convention; nothing to
@@ -372,7 +372,7 @@ def constrained_crlb(bound, gradients, values, tol: float = 0.0, rcond: float = 
       sits above the rounding of the gradients (relative 1e-13 and the cancellation in
       ``p - c``) and below the smallest direction we regard as real.
 
-    References: 000_4fddb3aadaa82026.txt Sec. 2.6, Eq. (17), (23).
+    References: [Oliva2021] Sec. 2.6, Eq. (17), (23).
     """
     c = np.asarray(bound, float)
     n = c.shape[-1]
@@ -408,7 +408,7 @@ def apf_force(intelligence: Intelligence, weighting: str = "area", at=(0.0, 0.0)
     ``beta_i = 1 / area(Y_i)``).  Neither gives the published 0.749 rad for Table 1's sets
     (README, oliva2021; :func:`heading` converts).
 
-    References: 000_4fddb3aadaa82026.txt Sec. 2.7."""
+    References: [Oliva2021] Sec. 2.7."""
     if weighting not in ("area", "caption"):
         raise ValueError(f"weighting must be 'area' or 'caption'; got {weighting!r}")
     p = np.asarray(at, float)

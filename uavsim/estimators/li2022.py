@@ -1,4 +1,4 @@
-"""The simulation study of 001_02b1680e6b11a133.txt Sec. 5 as data, its metrics and its tables.
+"""The simulation study of [Li2022] Sec. 5 as data, its metrics and its tables.
 
 Three scenarios (``li2022-line``: Table 5, Figs. 4-7; ``li2022-arc-slow``: Table 7,
 Figs. 8-11; ``li2022-arc-fast``: Table 9, Figs. 12-15), N = 200 scans of T = 0.1 s, each
@@ -6,7 +6,7 @@ with 12 filter rows: PL-MMSE, PLKF, BC-PLKF, IVKF (:mod:`.plmmse`) and each of t
 constrained twice (:mod:`.constraints`): ``-C(W=I)`` and ``-C(W=P^-1)`` on the line
 (Eq. 72-73), ``-L`` and ``-S`` on the arc (Eq. 76-80, then the tangent velocity, Eq. 81-83).
 
-Readings (``../shared/notes/paper001-pl-mmse.md`` is the map; where we decided):
+Readings (where the paper is ambiguous, what we chose):
 
 * Observer (Sec. 5.2): five constant-velocity legs of 40 scans through (60, 0), (0, 7.5),
   (60, 15), (0, 22.5), (60, 30), (0, 37.5) m, at (60, 0) at scan 1.  The print ends at

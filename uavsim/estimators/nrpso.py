@@ -1,6 +1,6 @@
 """Batch TMA by Newton-Raphson, particle swarm optimisation and their hybrid, NRPSO.
 
-003_80426d4f5b662169.txt (Oh, Shi, Choi 2021), Sec. 3.  The target's state at the first
+[Oh2021] (Oh, Shi, Choi 2021), Sec. 3.  The target's state at the first
 scan, ``X = [px, py, vx, vy]`` (constant velocity, Eq. 1-2), minimises
 ``J = sum_k (z_k - h_k)^2 / sigma^2`` (Eq. 5), which is twice :mod:`.batch`'s ``lam``.
 
@@ -288,7 +288,7 @@ class BatchTMA:
 
     References
     ----------
-    003_80426d4f5b662169.txt Eq. (5)-(13), Table 2.
+    [Oh2021] Eq. (5)-(13), Table 2.
     """
 
     def __init__(self, sigma: float, method: str = "nrpso", rng=None, n_candidates: int = 10_000,

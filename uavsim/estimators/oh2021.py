@@ -1,4 +1,4 @@
-"""The simulation study of 003_80426d4f5b662169.txt (Oh, Shi, Choi 2021), Sec. 2 and 4.
+"""The simulation study of [Oh2021] (Oh, Shi, Choi 2021), Sec. 2 and 4.
 
 Scenario (Sec. 2, Table 1), in 003's frame (x east, y north, bearings clockwise from
 north): 600 s; K = 100..600 scans at ``t_k = (k - 1) 600 / K``; the observer starts at
@@ -196,7 +196,7 @@ def study(runs: int, seed: int, targets=(1, 2, 3), sigmas_deg=SIGMAS_DEG, scans=
             if progress:
                 progress(len(rows), len(jobs))
     rows.sort(key=lambda r: (r["target"], r["scans"], r["sigma_deg"]))
-    return {"study": "oh2021", "paper": "003_80426d4f5b662169.txt", "runs": runs, "seed": seed,
+    return {"study": "oh2021", "paper": "[Oh2021]", "runs": runs, "seed": seed,
             "methods": list(methods), "targets": list(targets), "sigmas_deg": list(sigmas_deg), "scans": list(scans),
             "full_scans": FULL_SCANS, "sweep_sigma_deg": SWEEP_SIGMA_DEG, "diverged_beyond_m": DIVERGED_M,
             "workers": workers, "wall_seconds": time.perf_counter() - t0,

@@ -1,4 +1,4 @@
-"""The simulation study of 000_4fddb3aadaa82026.txt (Oliva, Farina, Setola 2021), Sec. 3.
+"""The simulation study of [Oliva2021] (Oliva, Farina, Setola 2021), Sec. 3.
 
 Scenario: a target with ``psi = [3e4, 3e4, 8.333, 7.778, 0, 0]`` (m, m/s, m/s^2; Eq. 11-12)
 seen every ``T = 2 s`` for 3600 s with bearing noise std 0.5 deg (the text says
@@ -246,7 +246,7 @@ def study(runs: int, seed: int, solver: str = "local", scenarios=tuple(SCENARIOS
     rows = {name: run_scenario(name, noise, solver, [g[1] for g in gens], starts, **global_settings)
             for name in scenarios}
     sub = slice(None, None, 20)
-    return {"study": "oliva2021", "paper": "000_4fddb3aadaa82026.txt", "runs": runs, "seed": seed, "solver": solver,
+    return {"study": "oliva2021", "paper": "[Oliva2021]", "runs": runs, "seed": seed, "solver": solver,
             "vary": vary,
             "wall_seconds": time.perf_counter() - t0, "truth": TRUTH.tolist(), "sigma_deg": SIGMA_DEG,
             "inside": [[*d.centre, d.radius] for d in INTELLIGENCE.inside],

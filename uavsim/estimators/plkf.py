@@ -1,6 +1,6 @@
 """The pseudo-linear Kalman filter family for bearings-only tracking.
 
-002_4e3cd4c0a7df16d8.txt (Huang et al. 2021), Sec. 2.  Bearings follow that paper:
+[Huang2021] (Huang et al. 2021), Sec. 2.  Bearings follow that paper:
 ``beta = atan2(dy, dx)`` from the +x axis (Eq. 5); the simulator's adapter converts.
 
 Every step is a pure function batched over R independent runs: states ``x (R, n)``,
@@ -26,7 +26,7 @@ The extracted text lost minus signs; re-derived here (and tested against hand st
   no division when ``m`` (the observer's offset from the origin along the line of sight)
   vanishes.  Note that ``m`` depends on where the coordinate origin is: the UB and VC
   filters are not translation invariant (the paper's scenarios keep ``|m|`` ~ 700 m).
-* What UB-PLKF is (``../shared/notes/paper002-ub-origin.md``; exact, tested): with
+* What UB-PLKF is (re-derived here; exact, tested): with
   ``u^ = [cos beta^, sin beta^]`` the predicted line of sight, ``n^ = [sin beta^, -cos beta^]``,
   ``d^`` the predicted range and ``delta = beta~ - beta^``, the UB update is a bearing EKF
   update whose Jacobian ``grad beta = [-sin beta^, cos beta^, 0, 0] / d^`` is scaled by

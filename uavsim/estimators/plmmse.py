@@ -1,6 +1,6 @@
 """PL-MMSE under Gaussian-mixture noise and its pseudo-linear baselines (paper 001).
 
-001_02b1680e6b11a133.txt (Li, Tang, Zhang, Zou 2022), Sec. 2 and Table 1.  Bearings
+[Li2022] (Li, Tang, Zhang, Zou 2022), Sec. 2 and Table 1.  Bearings
 follow the paper (and 002): ``phi = atan2(ty - sy, tx - sx)`` from +x, anticlockwise
 (Eq. 3, printed as ``tan^-1`` of the ratio; atan2 keeps the quadrant).
 

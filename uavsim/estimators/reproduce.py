@@ -1,4 +1,4 @@
-"""``uavsim tma reproduce NAME``: the study of 002_4e3cd4c0a7df16d8.txt Sec. 3.
+"""``uavsim tma reproduce NAME``: the study of [Huang2021] Sec. 3.
 
 Runs every filter of :mod:`.plkf` on the same R runs (batched: one array op per scan for
 all runs), then writes ``result.json`` (per filter: RMSE curves, time-averaged RMSE,

@@ -1,4 +1,4 @@
-"""The simulation study of 002_4e3cd4c0a7df16d8.txt Sec. 3 as data, and its metrics.
+"""The simulation study of [Huang2021] Sec. 3 as data, and its metrics.
 
 Three scenarios, N = 350 scans of T = 1 s, q_x = q_y = 0.2 m^2/s^3, filters assume
 sigma = 5 deg, prior ``N(mean, diag(625, 625, 4, 4))`` with the filter's initial estimate
@@ -22,7 +22,7 @@ minus signs (the figures are not in the text):
 * ``huang2021-mismatch`` (Sec. 3.2, Fig. 7): scenario 2 with the true noise 3 deg for
   scans k < 51 and k > 201 and 7 deg otherwise, while the filters still assume 5 deg.
 * ``huang2021-scenario2-alt``: the other reading of scenario 2 (the one that reproduces
-  the paper's ordering, ``../shared/notes/paper002-ub-origin.md``): target
+  the paper's ordering; see the UB derivation in :mod:`.plkf`): target
   ``[-1000, 1000, -10, -10]`` with the acceleration ``[0.05, 0.15]`` as printed, ending
   at ``(-5, 5)`` m/s; observer from ``(500, 500)`` at ``(0, -9.45)`` m/s in the same
   anticlockwise turn; prior mean = true start.  Its speed also stays in ``[6.3, 14.2]``

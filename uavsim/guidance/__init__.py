@@ -1,4 +1,4 @@
-"""Target guidance: Problem (P1) of 004_22b452551a772073.txt Sec. IV, solved exactly
+"""Target guidance: Problem (P1) of [Papaioannou2023] Sec. IV, solved exactly
 where the budget allows and always with a certified gap.
 
 ``Guidance`` assembles P1's matrices once per horizon length (:mod:`.compiled`) and

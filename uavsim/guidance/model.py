@@ -1,6 +1,6 @@
 """Problem (P1), the guidance MIQP, as one cvxpy model built once with Parameters.
 
-004_22b452551a772073.txt Sec. IV, Eq. (6)-(8).  For one target, from the start mean
+[Papaioannou2023] Sec. IV, Eq. (6)-(8).  For one target, from the start mean
 ``mu_t`` (Eq. 8c), choose forces ``u_{t+tau|t}``, tau = 0..T-1, to minimise Eq. (7)::
 
     || mu^pos_{t+T|t} - G_o ||^2 + rho sum_{tau=1}^{T-1} || u_tau - u_{tau-1} ||^2
@@ -179,7 +179,7 @@ def build_p1(world: World, dynamics: Dynamics, cfg: GuidanceConfig, fixed_faces:
 
     References
     ----------
-    004_22b452551a772073.txt Eq. (7)-(8).
+    [Papaioannou2023] Eq. (7)-(8).
     """
     geom = geometry(world, dynamics, cfg)
     t, n = cfg.horizon, len(geom.kept)

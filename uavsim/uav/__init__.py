@@ -1,4 +1,4 @@
-"""UAV policies (004_22b452551a772073.txt Sec. V-B, VI-B): where the sensors are and how
+"""UAV policies ([Papaioannou2023] Sec. V-B, VI-B): where the sensors are and how
 they move, one registry of interchangeable objects.
 
 A :class:`Policy` is reset at the start of a trial (drawing its start from its own

@@ -1,6 +1,6 @@
 """The UAV's grid moves and the decision rule that picks one (the ``optimized`` policy).
 
-004_22b452551a772073.txt Eq. (3): from ``s_{t-1}`` the UAV may move to::
+[Papaioannou2023] Eq. (3): from ``s_{t-1}`` the UAV may move to::
 
     (s_x + lam Dr cos(kap Dth), s_y + lam Dr sin(kap Dth), h),
     lam in {0..N_r}, kap in {1..N_th}, Dth = 2 pi / N_th

@@ -1,6 +1,6 @@
 """The ``lookahead`` policy: a non-myopic UAV that rolls out the myopic one.
 
-The paper's UAV (004_22b452551a772073.txt Eq. 13) looks one step ahead.  This policy
+The paper's UAV ([Papaioannou2023] Eq. 13) looks one step ahead.  This policy
 scores every admissible first move of Eq. (3) by the summed covariance traces of the
 ``horizon`` steps that follow when, after it, the UAV flies the myopic rule itself (a
 rollout of the base policy, Bertsekas, *Rollout, Policy Iteration and Distributed

@@ -1,4 +1,4 @@
-"""Pre-computed UAV manoeuvres (004_22b452551a772073.txt Sec. VI-B, Fig. 3).
+"""Pre-computed UAV manoeuvres ([Papaioannou2023] Sec. VI-B, Fig. 3).
 
 Closed loops (zig-zag, square, pentagon, circle) whose first waypoint is placed at the
 UAV's start, shifted as little as needed to lie inside the operating region; the UAV
