@@ -1,7 +1,7 @@
 """Speed of 003's batch TMA (NR, PSO, NRPSO) and the wall time of the study's full grid.
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/batch_tma.py [--runs 40] [--dtype float32]
-    OPENBLAS_NUM_THREADS=1 python benchmarks/batch_tma.py --grid [--workers 2] [--out runs/oh2021]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/batch_tma.py [--runs 40] [--json docs/data/oh2021-speed.json]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/batch_tma.py --grid [--workers 2] --json docs/data/oh2021-grid.json
     OPENBLAS_NUM_THREADS=1 python benchmarks/batch_tma.py --compare-dtypes [--runs 200]
 
 Default: the kernel's cost per particle-scan (float32 / float64, cache-sized blocks or
@@ -70,31 +70,57 @@ def per_run(target, sigma_deg, scans, runs, dtype) -> dict:
     return secs
 
 
+def single(sigma_deg: float, runs: int) -> dict:
+    """CPU seconds per run of each method fitting one run at a time with ``BatchTMA``."""
+    prob_t = oh2021.times(600)
+    sig = np.radians(sigma_deg)
+    gens = oh2021.streams(2021, runs)
+    out = {}
+    for m in oh2021.METHODS:
+        total = 0.0
+        for g in gens:
+            z = np.angle(np.exp(1j * (oh2021.bearings(2, prob_t) + sig * g[0].standard_normal(600))))
+            # 003's bearings are clockwise from north (Eq. 3), the BatchTMA default
+            est = nrpso.BatchTMA(sigma=sig, method=m, rng=g[1])
+            total += _cpu(est.fit, prob_t, z, oh2021.observer(prob_t))
+        out[m] = total / runs
+    return out
+
+
 def estimate(args) -> None:
+    started = machine()
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores (timings are CPU seconds)")
     print("kernel, ns per particle-scan     lam   lam+grad+F")
+    kernels = []
     for dtype in (np.float32, np.float64):
         for block in (2**16, 2**30):
             a, b = kernel(dtype, block)
             label = "cache-sized blocks" if block == 2**16 else "one pass"
+            kernels.append({"dtype": np.dtype(dtype).name, "blocks": label, "lam_ns": a, "lam_grad_fisher_ns": b})
             print(f"  {np.dtype(dtype).name:8s} {label:20s}{a:6.2f}{b:10.2f}")
     dtype = np.dtype(args.dtype)
     print(f"\nCPU seconds per run ({args.runs} runs, {dtype.name} swarm)   nr     pso    nrpso   total")
-    by_k = {}
-    for k in oh2021.SCANS:
-        by_k[k] = per_run(2, oh2021.SWEEP_SIGMA_DEG, k, args.runs, dtype)
-        print(f"  target 2, 0.5 deg, K = {k:3d}          " + "".join(f"{s:7.4f}" for s in by_k[k].values())
-              + f"{sum(by_k[k].values()):8.4f}")
-    for sd in (0.1, 1.9):
-        s = per_run(2, sd, 600, args.runs, dtype)
-        print(f"  target 2, {sd} deg, K = 600          " + "".join(f"{v:7.4f}" for v in s.values())
-              + f"{sum(s.values()):8.4f}")
+    rows, by_k = [], {}
+    for k, sd in [(k, oh2021.SWEEP_SIGMA_DEG) for k in oh2021.SCANS] + [(600, 0.1), (600, 1.9)]:
+        secs = per_run(2, sd, k, args.runs, dtype)
+        if sd == oh2021.SWEEP_SIGMA_DEG:
+            by_k[k] = secs
+        rows.append({"target": 2, "sigma_deg": sd, "scans": k, "seconds": secs})
+        print(f"  target 2, {sd} deg, K = {k:3d}          " + "".join(f"{s:7.4f}" for s in secs.values())
+              + f"{sum(secs.values()):8.4f}")
+    one = single(oh2021.SWEEP_SIGMA_DEG, max(args.runs // 4, 5))
+    print("  one run at a time (BatchTMA), K = 600  " + "".join(f"{v:7.4f}" for v in one.values()))
     print("  notes' reference (one core, K = 600)  " + "".join(f"{v:7.3f}" for v in NOTES_SECONDS.values())
           + f"{sum(NOTES_SECONDS.values()):8.3f}")
     grid = oh2021.cells()
     cpu = sum(1000 * sum(by_k[c.scans].values()) for c in grid)
     print(f"\ngrid: {len(grid)} cells x 1000 runs: {cpu / 60:.1f} CPU min; over {args.workers} workers about "
           f"{cpu / args.workers / 60:.1f} min wall (the notes' straightforward loop: about 13 h on one core)")
+    if args.json:
+        write(Path(args.json), {"settings": vars(args), "kernels": kernels, "per_run": rows,
+                                "single": {"sigma_deg": oh2021.SWEEP_SIGMA_DEG, "seconds": one},
+                                "grid_cpu_seconds": cpu, "notes_seconds": NOTES_SECONDS}, started)
+        print(f"wrote {args.json}")
 
 
 def compare_dtypes(args) -> None:
@@ -125,8 +151,14 @@ def full_grid(args) -> None:
           f"after {os.getloadavg()[0]:.2f}); CPU {result['cpu_seconds'] / 60:.1f} min")
     print(f"NR divergence, target 2, 1.9 deg, K = 600, 1000 runs: {div:.1f}% (paper: about 40%, band "
           f"{40 - band:.1f}..{40 + band:.1f}; the reference implementation's 41.3%)")
+    keep = ("target", "sigma_deg", "scans", "runs", "crlb_pos_m", "crlb_vel_mps", "control")
+    cells = [{**{k: c[k] for k in keep if k in c},
+              "methods": {m: {k: v for k, v in row.items() if k != "seconds_per_run"}
+                          for m, row in c["methods"].items()}}
+             for c in result["cells"]]
     write(Path(args.json), {"settings": vars(args), "wall_seconds": wall, "cpu_seconds": result["cpu_seconds"],
-                            "workers": args.workers, "nr_divergence_t2_1p9deg_pct": div}, started)
+                            "workers": args.workers, "runs": 1000, "seed": result["seed"],
+                            "nr_divergence_t2_1p9deg_pct": div, "cells": cells}, started)
     print(f"wrote {args.json}")
 
 
@@ -138,7 +170,8 @@ def main() -> None:
     ap.add_argument("--grid", action="store_true", help="run the full grid once")
     ap.add_argument("--compare-dtypes", action="store_true")
     ap.add_argument("--out", default="runs/oh2021")
-    ap.add_argument("--json", default="runs/oh2021-grid.json", help="--grid: where its figures go (with the machine)")
+    ap.add_argument("--json", help="where the figures go, with the machine (docs: docs/data/oh2021-speed.json, "
+                    "with --grid docs/data/oh2021-grid.json)")
     args = ap.parse_args()
     if args.grid:
         full_grid(args)

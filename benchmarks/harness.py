@@ -56,3 +56,33 @@ def write(path: Path, results: dict, started: dict) -> None:
     meta = dict(started, load_average_end=list(os.getloadavg()), command=" ".join([Path(sys.argv[0]).name,
                                                                                    *sys.argv[1:]]))
     path.write_text(json.dumps({"machine": meta, **results}, indent=1, default=float) + "\n")
+
+
+def provenance(data: dict) -> str:
+    """One line naming where a table's figures come from: commit, CPU, cores, load, command."""
+    m = data["machine"]
+    dirty = " (uncommitted changes)" if m.get("dirty") else ""
+    load = m.get("load_average", [None])[0]
+    return (f"*Measured at commit `{m['commit'][:8]}`{dirty} on {m['cpu']} ({m['cores']} cores, load "
+            f"{load:.2f} at the start) by `{m.get('command', '?')}`.*")
+
+
+def fill(page: Path, tables: dict[str, str], check: bool = False) -> list[str]:
+    """Put each ``tables[name]`` between ``<!-- data: name -->`` and ``<!-- /data -->`` in
+    ``page``.  Returns the names whose text changed (written unless ``check``); raises
+    KeyError for a name with no markers, so a page cannot silently miss a table."""
+    text = page.read_text()
+    changed = []
+    for name, body in tables.items():
+        start, end = f"<!-- data: {name} -->", "<!-- /data -->"
+        i = text.find(start)
+        if i < 0:
+            raise KeyError(f"{page}: no '{start}' marker")
+        j = text.index(end, i)
+        new = f"{start}\n{body.strip()}\n"
+        if text[i:j] != new:
+            changed.append(name)
+            text = text[:i] + new + text[j:]
+    if changed and not check:
+        page.write_text(text)
+    return changed

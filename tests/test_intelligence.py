@@ -142,7 +142,7 @@ def test_constrained_crlb_properties_and_table_3():
     constraints drop out; the bound is below the unconstrained one and has zero variance
     along the active gradients.  At the truth: proposed 1.821e3 against the published
     1.873e3 (34 active, rank 4); without APF 5.68e3 against 1.454e3, as measured (the
-    rank, 3, decides the number: README, oliva2021)."""
+    rank, 3, decides the number: docs/results/oliva2021.md)."""
     rng = np.random.default_rng(3)
     a = rng.normal(size=(6, 6))
     c = a @ a.T + np.eye(6)
@@ -209,7 +209,7 @@ def test_constraints_help_without_the_apf_direction():
     4.1e7).  The constraints trim the far tail rather than help every run: the paired
     difference of squared position errors has t = 2.3 over these 30 runs and favours the
     constrained estimate in 12 of them.  Not asserted: that the APF direction alone does not
-    help; with a converged solver it does (README)."""
+    help; with a converged solver it does (docs/results/oliva2021.md)."""
     noise = _noise(30)
     rows = {name: oliva.run_scenario(name, noise) for name in ("no-information", "constrained-no-apf")}
     rmse = {n: np.sqrt(((np.array(r["theta"])[:, :2] - 3e4) ** 2).sum(1).mean()) for n, r in rows.items()}
@@ -223,7 +223,7 @@ def test_global_stage_budget_and_polish():
     from the MLE, as 000's MIDACO rows do (objective hundreds above the local solver's;
     ``benchmarks/oliva2021.py --global``: 300 generations reach it); the local polish from
     there finds the local solver's minimum, with and without constraints (one minimum:
-    every start we tried ends there, README)."""
+    every start we tried ends there, docs/results/oliva2021.md)."""
     noise, gens = _noise(2, 7), oliva.streams(7, 2)
     for gamma, tc, runs in ((oliva.GAMMA_APF, None, 2), (oliva.GAMMA_APF, TC, 1)):
         data = oliva.problem(gamma, noise[:runs])

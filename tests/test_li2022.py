@@ -103,7 +103,10 @@ def paired_t(study, name, better, worse, part="pos"):
 @pytest.mark.parametrize("name", L.SCENARIOS)
 def test_constrained_beats_unconstrained_for_every_filter(study, name):
     """Sec. 5.3 (Tables 5, 7, 9; Figs. 5, 9, 13): every constrained row below its
-    unconstrained filter, position and velocity, paired t > 5 over the 1000 runs."""
+    unconstrained filter, position and velocity, paired t > 5 over the 1000 runs.
+
+    Not informative about the bearings: the no-update controls order the same way
+    (constrained dead reckoning beats unconstrained; module docstring)."""
     sc, _ = study[name]
     for base in BASES:
         for suffix in sc.variants:
@@ -113,7 +116,10 @@ def test_constrained_beats_unconstrained_for_every_filter(study, name):
 
 def test_pl_mmse_is_the_best_unconstrained_filter_on_the_line(study):
     """Table 5 / Fig. 4: PL-MMSE below PLKF, BC-PLKF and IVKF (t = 134, 10, 24), and
-    PL-MMSE-C the best constrained row (Figs. 6-7)."""
+    PL-MMSE-C the best constrained row (Figs. 6-7).
+
+    Not informative about the bearings: at rho = 7 every row is above its no-update control
+    (module docstring; docs/results/li2022.md), so this checks the paper's arithmetic."""
     for other in BASES[1:]:
         assert paired_t(study, "li2022-line", "PL-MMSE", other) > 5
     rows = study["li2022-line"][1]
@@ -129,7 +135,10 @@ def test_arc_slow_within_ten_percent_of_table7(study):
     Not reached: the PL-MMSE rows' RMSEvel (ratio 1.12; -L/-S 1.17).  With this tiny noise
     (std 9.2e-6 rad) c1 = 1 - 4e-11 and PL-MMSE is the PLKF to 1e-5 (asserted): the
     published 11% velocity advantage of PL-MMSE over PLKF cannot come from Table 1's
-    equations.  Doubling PL-MMSE's R_k (README, a fit) gives 0.94."""
+    equations.  Doubling PL-MMSE's R_k (docs/results/li2022.md, a fit) gives 0.94.
+
+    Not informative about the bearings: at rho = 7 every row is above its no-update control
+    (module docstring; docs/results/li2022.md), so this checks the paper's arithmetic."""
     rows = study["li2022-arc-slow"][1]
     for label in rows:
         assert 0.9 < ratio(study, "li2022-arc-slow", label, 0) < 1.1, label
@@ -146,8 +155,11 @@ def test_arc_fast_baselines_within_ten_percent_of_table9(study):
 
     Not reached: the PL-MMSE rows are 32% (L/S 47%) above the published values.  Our
     PL-MMSE is no better than BC-PLKF here (0.295 m against 0.298); the published one is 30%
-    better.  R_k doubled in PL-MMSE alone gives 0.99 (README): the paper's PL-MMSE weighs
-    the bearings about half as much as Eq. (19) as derived says."""
+    better.  R_k doubled in PL-MMSE alone gives 0.99 (docs/results/li2022.md): the paper's PL-MMSE weighs
+    the bearings about half as much as Eq. (19) as derived says.
+
+    Not informative about the bearings: at rho = 7 every row is above its no-update control
+    (module docstring; docs/results/li2022.md), so this checks the paper's arithmetic."""
     for label in ("PLKF", "BC-PLKF", "IVKF"):
         for metric in (0, 1):
             assert 0.9 < ratio(study, "li2022-arc-fast", label, metric) < 1.1, (label, metric)
@@ -163,8 +175,11 @@ def test_line_as_measured(study):
     Not reached: the baselines are 21-38% better than published (PLKF 18.7 m against 27.1).
     Their only noise parameter is the pseudo-linear noise's second moment: with E e^2 for
     E sin^2 e (the paper does not say) PLKF drops to 9.2 m and BC-PLKF rises to 9.3 m
-    (README), neither near the table; what makes the published baselines more biased is
-    not found."""
+    (docs/results/li2022.md), neither near the table; what makes the published baselines more biased is
+    not found.
+
+    Not informative about the bearings: at rho = 7 every row is above its no-update control
+    (module docstring; docs/results/li2022.md), so this checks the paper's arithmetic."""
     assert ratio(study, "li2022-line", "PL-MMSE-C(W=I)") == pytest.approx(0.94, abs=0.05)
     assert ratio(study, "li2022-line", "PL-MMSE-C(W=P^-1)") == pytest.approx(0.94, abs=0.05)
     assert ratio(study, "li2022-line", "PL-MMSE") == pytest.approx(1.09, rel=0.05)

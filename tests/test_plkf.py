@@ -303,7 +303,7 @@ def test_ub_plkf_is_a_bearing_ekf_with_a_scaled_jacobian():
 # VC 635; CRLB 665, constrained CRLB 420.  Paired t over the runs: UB < BC 7.3, UB < IV 3.0,
 # VC < BC 8.2, VC < IV 5.6, VC < UB 6.7 (seed 7: 9.1, 2.8, 9.9, 5.2, 7.5).  So under this
 # reading the paper's ordering of Fig. 5 holds; under ours (huang2021-scenario2) it does not
-# (IV best, UB worst, above).  The text cannot decide between them (README).
+# (IV best, UB worst, above).  The text cannot decide between them (docs/results/huang2021.md).
 
 @pytest.fixture(scope="module")
 def alt():

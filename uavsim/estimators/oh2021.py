@@ -41,7 +41,8 @@ DIVERGED_M = 20e3
 METHODS = ("nr", "pso", "nrpso")  # Figs. 4-5
 #: Every method the study runs; ``pso1500`` is PSO with 1500 particles (Fig. 6).
 ALL_METHODS = (*METHODS, "pso1500")
-#: The reference implementation's NR divergence (%) over 1000 runs, K = 600 (notes/paper003-000.md).
+#: The reference implementation's NR divergence (%) over 1000 runs, K = 600 (from reading notes kept
+#: outside this repository; quoted for comparison).
 NOTES_NR_DIVERGENCE = {1: (0, 0, 0.1, 0.3, 0.6, 1.0, 1.4, 2.2, 3.3, 4.4),
                        2: (1.2, 5.5, 9.7, 13.8, 18.5, 23.4, 29.3, 32.2, 36.2, 41.3),
                        3: (0, 0, 0, 0, 0.6, 2.4, 4.2, 7.2, 9.7, 12.6)}

@@ -1,0 +1,17 @@
+"""The documentation's result tables are built from the benchmarks' JSON, not typed: each
+page's tables equal what its builder makes of the committed JSON files."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_estimator_result_tables_match_their_json():
+    """``benchmarks/tma_studies.py --docs --check`` rebuilds the tables of
+    docs/results/{huang2021,li2022,oh2021,oliva2021}.md from docs/data/*.json and exits 1
+    naming any table that differs (a hand edit, or JSON re-measured without --docs)."""
+    out = subprocess.run([sys.executable, "benchmarks/tma_studies.py", "--docs", "--check"], cwd=ROOT,
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stdout + out.stderr
