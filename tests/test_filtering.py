@@ -197,7 +197,7 @@ def test_particle_filter_matches_kalman_on_linear_gaussian_toy():
 
 def test_roughening_adds_the_specified_jitter():
     """Resampling with roughening K adds N(0, (K E N^(-1/d))^2) per dimension, E the
-    particles' spread in that dimension (Gordon, Salmond & Smith 1993).  Particles on a
+    particles' spread in that dimension [Gordon1993].  Particles on a
     grid with unit spread, one weight of ~1: every resampled particle is that one, so
     the sample variance after roughening estimates the jitter variance (5 se band)."""
     n, d, k = 20_000, 6, 0.2

@@ -7,7 +7,7 @@
   without any measurement on the same trials (common random numbers).  Below 1 the
   bearings help; a number that would be the same with the sensor off is not a tracking
   result.  The paired t-statistic is over the per-trial mean squared errors.
-* **NEES** (Bar-Shalom, Li & Kirubarajan 2001, Sec. 5.4.2): ``e' P^-1 e`` of the posterior
+* **NEES** ([BarShalom2001, Sec. 5.4.2]): ``e' P^-1 e`` of the posterior
   mean error e against the posterior covariance P.  For a consistent estimator it is
   chi-square with d degrees of freedom; the average of n independent values (trials x
   targets) lies in ``[chi2_{0.025}(n d), chi2_{0.975}(n d)] / n`` with probability 0.95.

@@ -7,7 +7,7 @@ k, with the missed detections and Poisson clutter of Eq. (4).  Bearings follow 0
 
 **Recursion.** Target model Eq. (1)-(2): ``x_{k+1} = A x_k + B u_k + v_k``,
 ``v ~ N(0, Q)``, ``x_0 ~ N(mu_0, Sigma_0)``.  For additive Gaussian noise the recursion of
-Tichavsky, Muravchik & Nehorai (IEEE TSP 46(5), 1998, Eq. 21 with linear dynamics) reads
+[Tichavsky1998, Eq. (21)] (with linear dynamics) reads
 
     J_0 = Sigma_0^-1,    J_{k+1} = (Q + A J_k^-1 A^T)^-1 + E[J_Z(x_{k+1}, s_{k+1})].
 
@@ -48,7 +48,7 @@ Sec. III-A) -- and ``q2 = 1`` with ``p_D = 1``: the standard bound.  With clutte
 falls below ``p_D`` (a miss among false alarms still carries a little information,
 which the expectation counts).  This is the IRF bound: the expectation of the
 information.  Conditioning on the detection sequence (ENUM) gives a tighter bound,
-equal to the random-finite-set bound (Hernandez et al. 2004; Tong, Zhang, Meng & Wang,
+equal to the random-finite-set bound ([Hernandez2004]; Tong, Zhang, Meng & Wang,
 Sensors 12(12), 2012); it is not implemented here.
 
 **Computing q2.** The clutter residuals are a Poisson process of intensity ``lambda_u``
@@ -98,7 +98,7 @@ state is a deterministic function of the drawn start, ``x_k = g_k(x_0)``, with s
 ``G_k = d g_k / d x_0`` (:attr:`uavsim.truth.Truth.sensitivity`).  Every scan's score is
 ``G_j^T`` times the scan's score in ``x_j``, so the Bayesian information on ``x_0`` from
 scans 1..k is ``J_k = Sigma_0^-1 + sum_j E[G_j^T E^T W_j E G_j]``, and the Van Trees
-bound for the function ``g_k`` (Van Trees & Bell 2007, the bound for a function of the
+bound for the function ``g_k`` ([VanTrees2007], the bound for a function of the
 parameter) is ``P_k >= E[G_k] J_k^-1 E[G_k]^T``, all on ``[x, y, vx, vy]`` and the
 expectations averaged over trials.  Campaigns report that bound for planned truths and
 none for stochastic ones (its recursion would need the Jacobian of the truth's feedback
@@ -185,8 +185,8 @@ def information_reduction_factor(sigma: float, p_detect: float, clutter_rate: fl
 
     References
     ----------
-    [Papaioannou2023] Eq. (4), (10); Niu, Willett & Bar-Shalom, IEEE TSP 2001;
-    Hernandez, Ristic, Farina & Timmoneri, IEEE TSP 52(9), 2004, Sec. III-A.
+    [Papaioannou2023] Eq. (4), (10); [Niu2001];
+    [Hernandez2004, Sec. III-A].
     """
     _check_sensor(sigma, p_detect, clutter_rate)
     if clutter_rate == 0.0 or p_detect == 0.0:
@@ -270,7 +270,7 @@ def pcrlb_step(cov: np.ndarray, a: np.ndarray, q: np.ndarray, info: np.ndarray) 
 
     References
     ----------
-    Tichavsky, Muravchik & Nehorai, IEEE TSP 46(5), 1998, Eq. (21).
+    [Tichavsky1998, Eq. (21)].
     """
     pred = a @ cov @ a.T + q
     pe = pred[:, :, POS]  # P- E^T, (M, n, 2)
@@ -408,8 +408,7 @@ def pcrlb_planned(sensitivity: np.ndarray, truth: np.ndarray, observers: np.ndar
 
     References
     ----------
-    [Papaioannou2023] Eq. (4), (10), Sec. VI-B (the noise-free truth); Van Trees &
-    Bell, Bayesian Bounds for Parameter Estimation and Nonlinear Filtering/Tracking, 2007.
+    [Papaioannou2023] Eq. (4), (10), Sec. VI-B (the noise-free truth); [VanTrees2007].
     """
     truth, observers = _as_trials(truth, "truth", 2), _as_trials(observers, "observers", 2)
     g = np.asarray(sensitivity, float)

@@ -17,7 +17,7 @@
   ``phi_i - l(x, s)`` are wrapped to (-pi, pi].  Several sensors (the fixed-sensor
   baseline) multiply their likelihoods: their log-likelihoods add.
 * Systematic resampling when ``ESS = 1 / sum w^2 < threshold N``; optional roughening
-  (Gordon, Salmond & Smith 1993): jitter ``K E N^(-1/d)`` per dimension, E the spread of
+  [Gordon1993]: jitter ``K E N^(-1/d)`` per dimension, E the spread of
   the particles before resampling.
 * Moments (Eq. 11): weighted mean and covariance.
 

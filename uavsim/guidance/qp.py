@@ -9,7 +9,7 @@ implied by the area bounds, because big-M is tight to the area) and P1 is a conv
 P b_E``, so the QP is ``min 1/2 u'Hu + g'u + c0`` over the ``2T`` forces, with ``H``
 (condition number ~1e3 on the paper mission) and the rows ``G u`` of the speed polygon,
 area and active faces computed once per program; a solve only forms right-hand sides.
-H is factorised once, ``H = R'R``, and DAQP (a dual active-set method, exact at
+H is factorised once, ``H = R'R``, and DAQP ([Arnstrom2022]; a dual active-set method, exact at
 convergence) solves it in ``w = R u``, where H is the identity, so its setup per QP is
 one pass over the rows it keeps.
 

@@ -3,8 +3,7 @@
 The paper's UAV ([Papaioannou2023] Eq. 13) looks one step ahead.  This policy
 scores every admissible first move of Eq. (3) by the summed covariance traces of the
 ``horizon`` steps that follow when, after it, the UAV flies the myopic rule itself (a
-rollout of the base policy, Bertsekas, *Rollout, Policy Iteration and Distributed
-Reinforcement Learning*, 2020, Ch. 2): at every later step the admissible grid move of
+rollout of the base policy, [Bertsekas2020, Ch. 2]): at every later step the admissible grid move of
 Eq. (3) (area, operating region, obstacles, segments) of least summed trace after its
 scan.  It flies the best first move and decides again the next step (receding horizon).
 The myopic rule's own first move is among those scored, so the chosen move's score is
