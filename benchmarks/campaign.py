@@ -12,10 +12,11 @@ with more trials: with 8 trials the cold Dask run measured +16%, with 16 trials 
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 import time
 from pathlib import Path
+
+from harness import parser, run
 
 from uavsim.campaign import run_campaign
 from uavsim.config import load_mission
@@ -33,11 +34,15 @@ def results(s: dict) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--mission", default="missions/paper.toml")
     ap.add_argument("--trials", type=int, default=16)
     ap.add_argument("--workers", type=int, default=2)
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     m = load_mission(args.mission, {"trials": args.trials})
     print(f"{m.path}: {args.trials} trials x {m.steps} steps, planner {m.planner.name}")
 

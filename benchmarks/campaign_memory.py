@@ -24,6 +24,8 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from harness import parser, run
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -52,11 +54,15 @@ def child(trials: int, workers: int) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--trials", type=int, nargs="+", default=[100, 300, 1000])
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--child", type=int, nargs=2, help=argparse.SUPPRESS)
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     if args.child:
         child(*args.child)
         return

@@ -8,10 +8,10 @@ Run it with OPENBLAS_NUM_THREADS=1 for the one-core figures a campaign worker se
 
 from __future__ import annotations
 
-import argparse
 import time
 
 import numpy as np
+from harness import parser, run
 
 from uavsim.belief.traces import decide
 from uavsim.campaign import run_trial, trial_seeds
@@ -37,11 +37,15 @@ def decision_seconds(mission, repeats=200) -> np.ndarray:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--mission", default="missions/paper.toml")
     ap.add_argument("--planner", default="optimized")
     ap.add_argument("--trials", type=int, default=3)
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     mission = load_mission(args.mission, {"trials": args.trials})
     m, n = len(mission.targets), mission.filter.particles
 

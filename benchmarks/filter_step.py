@@ -20,7 +20,6 @@ repeats.  Printed:
 
 from __future__ import annotations
 
-import argparse
 import resource
 import subprocess
 import time
@@ -28,6 +27,7 @@ import types
 from pathlib import Path
 
 import numpy as np
+from harness import parser, run
 
 import uavsim
 from uavsim.belief import particle as filtering
@@ -115,13 +115,17 @@ def ms(xs) -> str:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--repeats", type=int, default=200, help="filter steps per configuration")
     ap.add_argument("--decisions", type=int, default=15, help="decisions per N")
     ap.add_argument("--before", default="8c473d3", help="commit of the 'before' figures")
     ap.add_argument("--alone", type=int, metavar="STEPS", default=0,
                     help="only this checkout's 1-target step, STEPS steps (no old code beside it)")
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     if args.alone:
         step = np.array(filter_runs({"after": filtering}, 1, args.alone)["after"][0])
         print(f"filter step alone, 1 target x 5000: median {1e3 * np.median(step):.3f} ms, "

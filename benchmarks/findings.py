@@ -16,12 +16,12 @@ trials.
 
 from __future__ import annotations
 
-import argparse
 import os
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from harness import parser, run
 
 from uavsim.campaign import load_trials, run_campaign
 from uavsim.config import load_mission
@@ -46,11 +46,15 @@ def rmse(err2: np.ndarray) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--trials", type=int, default=20)
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", default="runs/findings")
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     err2, half = {}, None
     print(f"{'configuration':20s} {'mission':24s}{'RMSE m':>8s}{'/ no info':>10s}{'2nd half':>9s}"
           f"{'NEES in band':>13s}{'mean NEES':>10s}")

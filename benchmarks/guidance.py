@@ -21,12 +21,12 @@ by stage (``--trials`` trials of the optimized planner, mean, median and p90).
 
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import time
 from collections import Counter
 from dataclasses import replace
 
+import harness
 import numpy as np
 
 from uavsim.campaign import run_trial, trial_seeds
@@ -184,7 +184,7 @@ def before_after(mission, steps, seed, trials) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = harness.parser(__doc__)
     ap.add_argument("--mission", default="missions/paper.toml")
     ap.add_argument("--steps", type=int, default=50)
     ap.add_argument("--seed", type=int, default=1)
@@ -194,7 +194,11 @@ def main() -> None:
     ap.add_argument("--trials", type=int, default=2, help="closed-loop trials per method for --before's step times")
     ap.add_argument("--reference-plans", action="store_true",
                     help="plans re-solved by Clarabel (OuterApproximation.reference_plans)")
-    args = ap.parse_args()
+    harness.run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     OuterApproximation.reference_plans = args.reference_plans
     mission = load_mission(args.mission)
     t0 = time.perf_counter()

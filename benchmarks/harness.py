@@ -1,13 +1,19 @@
-"""What every benchmark's JSON carries, so that a figure can be traced and re-run.
+"""What every benchmark shares: its common arguments, and a JSON that lets a figure be traced and re-run.
 
-``machine()`` records the commit (and whether the tree had uncommitted changes), the CPU
-model, the cores, the BLAS threads a trial uses, Python and the load average when the run
-started and ended; ``write(path, results, args)`` stores them beside the results and the
-command line that made them.
+``parser(doc)`` gives every script the same ``--json PATH`` and ``--blas-threads N``
+(default 1, the figures a campaign's worker sees); ``run(body, ap)`` parses, runs
+``body(args)`` with that many BLAS threads while echoing what it prints, and with
+``--json`` writes the figures ``body`` returns, the printed text, the settings, the wall
+time and :func:`machine` (the commit and whether the tree had uncommitted changes, the CPU
+model, the cores, the BLAS threads, Python and the load average at the start and the end).
+``fill`` puts tables built from such files into the documentation's pages.
 """
 
 from __future__ import annotations
 
+import argparse
+import contextlib
+import io
 import json
 import os
 import platform
@@ -16,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-from threadpoolctl import threadpool_info
+from threadpoolctl import threadpool_info, threadpool_limits
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -38,6 +44,9 @@ def _cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
+_BLAS_LIMIT = [None]  # the --blas-threads of the running benchmark, if it used run()
+
+
 def machine() -> dict:
     """The run's provenance: commit, tree state, CPU, cores, BLAS threads, load, time."""
     blas = [{k: p.get(k) for k in ("internal_api", "num_threads", "version")} for p in threadpool_info()
@@ -45,6 +54,7 @@ def machine() -> dict:
     return {"commit": _git("rev-parse", "HEAD"), "dirty": bool(_git("status", "--porcelain", "--untracked-files=no")),
             "cpu": _cpu_model(), "cores": os.cpu_count(), "blas": blas,
             "trial_blas_threads": 1,  # every trial runs single-threaded (uavsim.campaign.one_blas_thread)
+            "blas_threads_limit": _BLAS_LIMIT[0],
             "python": platform.python_version(), "load_average": list(os.getloadavg()),
             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
 
@@ -56,6 +66,45 @@ def write(path: Path, results: dict, started: dict) -> None:
     meta = dict(started, load_average_end=list(os.getloadavg()), command=" ".join([Path(sys.argv[0]).name,
                                                                                    *sys.argv[1:]]))
     path.write_text(json.dumps({"machine": meta, **results}, indent=1, default=float) + "\n")
+
+
+def parser(doc: str) -> argparse.ArgumentParser:
+    """An argument parser with every benchmark's common arguments; the script's docstring
+    (its usage lines) is the help text's epilog."""
+    first, *rest = doc.strip().splitlines()
+    ap = argparse.ArgumentParser(description=first, epilog="\n".join(rest),
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--json", metavar="PATH", help="also write the figures, what is printed, the settings, the commit "
+                    "and the machine to PATH")
+    ap.add_argument("--blas-threads", type=int, default=1, metavar="N",
+                    help="BLAS threads in this process (default 1: what a campaign's worker has)")
+    return ap
+
+
+class _Tee(io.TextIOBase):
+    def __init__(self, out):
+        self.out, self.parts = out, []
+
+    def write(self, text: str) -> int:
+        self.parts.append(text)
+        return self.out.write(text)
+
+    def flush(self) -> None:
+        self.out.flush()
+
+
+def run(body, ap: argparse.ArgumentParser) -> None:
+    """Parse ``ap``, run ``body(args) -> dict | None`` (its figures) with ``--blas-threads``
+    BLAS threads, echo and keep what it prints, and with ``--json`` write it all."""
+    args = ap.parse_args()
+    _BLAS_LIMIT[0] = args.blas_threads
+    started, t0, tee = machine(), time.perf_counter(), _Tee(sys.stdout)
+    with threadpool_limits(args.blas_threads), contextlib.redirect_stdout(tee):
+        figures = body(args)
+    if args.json:
+        write(Path(args.json), {"settings": vars(args), "wall_seconds": time.perf_counter() - t0,
+                                "figures": figures or {}, "printed": "".join(tee.parts)}, started)
+        print(f"wrote {args.json}", file=sys.stderr)
 
 
 def provenance(data: dict) -> str:

@@ -11,10 +11,10 @@ all three at 1000 runs in under 10 s on 2 cores).  Medians over repeats.
 
 from __future__ import annotations
 
-import argparse
 import time
 
 import numpy as np
+from harness import parser, run
 
 from uavsim.estimators import li2022 as L
 from uavsim.estimators.plmmse import FILTERS
@@ -30,10 +30,14 @@ def _median_seconds(fn, repeats: int) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--runs", type=int, default=1000)
     ap.add_argument("--repeats", type=int, default=3)
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     scans = L.N_SCANS - 1
     print(f"filters on li2022-line at rho = 7 ({scans} updates), median of {args.repeats}")
     print(f"{'filter':10s}{'us/scan (1 run)':>17s}{f'us/scan/run ({args.runs})':>22s}")

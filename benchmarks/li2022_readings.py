@@ -9,7 +9,7 @@ first constrained rows.  The README's "where we differ" section quotes these fig
 
 from __future__ import annotations
 
-import argparse
+from harness import parser, run
 
 from uavsim.estimators import li2022 as L
 
@@ -25,10 +25,14 @@ READINGS = {
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--runs", type=int, default=1000)
     ap.add_argument("--seed", type=int, default=2021)
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     print(f"ours / published, RMSEpos_avg / RMSEvel_avg at rho = 7, {args.runs} runs, seed {args.seed}")
     for name in L.SCENARIOS:
         first = next(iter(L.scenario(name).variants))

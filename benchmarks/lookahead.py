@@ -23,7 +23,6 @@ a generated mission's default).  ``--only paper,g12`` runs some settings.
 
 from __future__ import annotations
 
-import argparse
 import os
 import subprocess
 import sys
@@ -31,6 +30,7 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from harness import parser, run
 
 from uavsim.campaign import load_trials, run_campaign
 from uavsim.config import load_mission
@@ -59,13 +59,17 @@ def missions(out: Path) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--trials", type=int, default=100)
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", default="runs/lookahead")
     ap.add_argument("--plan-clusters", type=int, choices=(1, 2), default=1)
     ap.add_argument("--only", default="", help="comma-separated settings (default: all)")
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     out = Path(args.out)
     print(f"{'setting':18s}{'no info':>9s}{'optimized':>10s}{'lookahead':>10s}{'ratio':>7s}{'paired t':>9s}"
           f"{'wins':>6s}{'resamples':>10s}{'PCRLB opt / la':>16s}{'planner s/step opt / la':>25s}")

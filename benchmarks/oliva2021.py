@@ -17,10 +17,10 @@ installed, with the constraints as a penalty.
 
 from __future__ import annotations
 
-import argparse
 import time
 
 import numpy as np
+from harness import parser, run
 
 from uavsim.estimators import batch, intelligence, oliva2021
 
@@ -104,13 +104,17 @@ def gaco(runs: int, evaluations: int) -> None:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = parser(__doc__)
     p.add_argument("--runs", type=int)
     p.add_argument("--global", dest="glob", action="store_true")
     p.add_argument("--generations", default="30,100,300")
     p.add_argument("--gaco", action="store_true")
     p.add_argument("--evaluations", type=int, default=20000)
-    args = p.parse_args()
+    run(measure, p)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     if args.glob:
         de_budgets(args.runs or 5, [int(g) for g in args.generations.split(",")])
     elif args.gaco:

@@ -19,13 +19,13 @@ single step's ratio says little; time averages and the share of steps below 1 sa
 
 from __future__ import annotations
 
-import argparse
 import os
 import time
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from harness import parser, run
 
 from uavsim.campaign import load_trials, run_campaign
 from uavsim.config import load_mission
@@ -46,7 +46,7 @@ def irf_table(sigma: float, p_detect: float, rate: float) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--mission", default="missions/paper.toml")
     ap.add_argument("--planner", default="optimized")
     ap.add_argument("--trials", type=int, default=20)
@@ -54,7 +54,11 @@ def main() -> None:
     ap.add_argument("--every", type=int, default=5, help="print every k-th step")
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", default="runs/pcrlb")
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     mission = load_mission(args.mission, {"trials": args.trials})
     if args.truth:
         mission = replace(mission, truth=args.truth)

@@ -8,9 +8,8 @@ batched (as `uavsim tma reproduce` runs them); the median over repeats.
 
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
+from harness import parser, run
 
 from uavsim.estimators.plkf import FILTERS
 from uavsim.estimators.reproduce import run_filter
@@ -20,9 +19,13 @@ PAPER = {"bc-plkf": 1.35, "iv-plkf": 2.12, "ub-plkf": 1.0, "vc-plkf": 1.21}
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--repeats", type=int, default=5)
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     sc = scenario("huang2021-scenario2")
     x0, bearings = draw_runs(sc, 300, 2021)
     rows = {}

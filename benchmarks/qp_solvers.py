@@ -25,7 +25,6 @@ QP of rolling re-plans at several horizons, on the paper mission and the worlds.
 
 from __future__ import annotations
 
-import argparse
 import hashlib
 import importlib.util
 import pickle
@@ -45,6 +44,7 @@ from uavsim.guidance.qp import ClarabelQP, FixedFaceQP
 
 sys.path.insert(0, str(Path(__file__).parent))
 from guidance import rolling  # noqa: E402  (benchmarks/guidance.py)
+from harness import parser, run
 
 from worlds import write_world  # noqa: E402  (benchmarks/worlds.py)
 
@@ -569,7 +569,7 @@ def calibrate(args) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     sub = ap.add_subparsers(dest="cmd", required=True)
     r = sub.add_parser("record", help="record the fixed-face QPs of real plans")
     r.add_argument("--out", default="runs/qps.pkl")
@@ -588,7 +588,11 @@ def main() -> None:
     k.add_argument("--horizons", type=int, nargs="*", default=[10, 25, 50])
     k.add_argument("--steps", type=int, default=10, help="re-plans per target")
     k.add_argument("--seed", type=int, default=1)
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     {"record": record, "compare": compare, "calibrate": calibrate}[args.cmd](args)
 
 

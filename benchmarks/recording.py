@@ -8,12 +8,12 @@ draws no random numbers, so the two runs compute identical trajectories.
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
+from harness import parser, run
 
 from uavsim.campaign import run_trial, trial_seeds
 from uavsim.config import load_mission
@@ -22,11 +22,15 @@ from uavsim.recording import Recorder
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--mission", default="missions/paper.toml")
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--particles", type=int, default=200, help="particles drawn per target")
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     m = load_mission(args.mission)
     seed = trial_seeds(m.seed, 1)[0]
     guidance = Guidance(m.world, m.dynamics, m.guidance)

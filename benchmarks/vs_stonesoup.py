@@ -35,7 +35,6 @@ call by call so machine load hits them alike.
 
 from __future__ import annotations
 
-import argparse
 import copy
 import sys
 import time
@@ -50,6 +49,7 @@ except ImportError:
     print("Stone Soup is not installed: pip install -e '.[bench]' (or pip install stonesoup); nothing to compare")
     sys.exit(0)
 
+from harness import parser, run
 from stonesoup.base import Property
 from stonesoup.models.measurement.base import MeasurementModel
 from stonesoup.models.measurement.nonlinear import Cartesian2DToBearing
@@ -337,10 +337,14 @@ def decision_benchmark(repeats: int, n: int = 5000) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--steps", type=int, default=200, help="filter steps")
     ap.add_argument("--decisions", type=int, default=5, help="decision repeats")
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     print(f"Stone Soup {stonesoup.__version__}; medians over interleaved calls")
     filter_benchmark(args.steps)
     decision_benchmark(args.decisions)

@@ -39,7 +39,6 @@ inside an obstacle's margin is allowed out first).
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import re
@@ -51,6 +50,7 @@ from pathlib import Path
 
 import cvxpy as cp
 import numpy as np
+from harness import parser, run
 from threadpoolctl import threadpool_limits
 
 from uavsim.campaign import trial_seeds
@@ -271,7 +271,7 @@ def summarize(worlds: list[dict], gap: float) -> dict:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = parser(__doc__)
     ap.add_argument("--worlds", type=int, default=50)
     ap.add_argument("--first", type=int, default=0, help="first seed")
     ap.add_argument("--trials", type=int, default=2)
@@ -280,7 +280,11 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", default="runs/worlds")
     ap.add_argument("--resume", action="store_true", help="reuse the worlds an earlier run with these settings kept")
-    args = ap.parse_args()
+    run(measure, ap)
+
+
+def measure(args) -> None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
     out = Path(args.out)
     seeds = range(args.first, args.first + args.worlds)
     t0 = time.perf_counter()
