@@ -51,7 +51,7 @@ def run(tmp_path, monkeypatch):
 @pytest.mark.parametrize("name", SCRIPTS)
 def test_every_example_has_the_gallery_shape(name):
     """A docstring (a title line, then what it shows, at most a few lines), main(out_dir,
-    small) and a __main__ block."""
+    small) and a __main__ block; the gallery's hook lists every example by name."""
     tree = ast.parse((EXAMPLES / name).read_text())
     doc = ast.get_docstring(tree)
     assert doc and doc.splitlines()[0].strip() and doc.splitlines()[1] == "", name
@@ -60,6 +60,7 @@ def test_every_example_has_the_gallery_shape(name):
     main = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "main")
     assert [a.arg for a in main.args.args[:2]] == ["out_dir", "small"]
     assert any(isinstance(n, ast.If) and "__main__" in ast.unparse(n.test) for n in tree.body)
+    assert f'"{name[:-3]}":' in (ROOT / "docs" / "hooks" / "gallery.py").read_text()
 
 
 def test_a_standalone_run_writes_its_figure_under_out(tmp_path):
@@ -162,3 +163,18 @@ def test_intelligence_region_helps(run):
     assert r["mean_error"]["inside the basin"] < r["mean_error"]["bearings only"] / 2
     assert r["violation"]["inside the basin"] < 1e-3
 
+
+def test_the_gallery_hook_lists_every_example():
+    """docs/hooks/gallery.py (run by `mkdocs build`) knows every script, in its order, and
+    its index links each page and thumbnail; citation keys link the references page."""
+    pytest.importorskip("mkdocs")
+    spec = importlib.util.spec_from_file_location("gallery_hook", ROOT / "docs" / "hooks" / "gallery.py")
+    hook = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(hook)
+    gallery = hook.examples()
+    assert sorted(e.path.name for e in gallery) == SCRIPTS
+    assert [e.stem for e in gallery][: len(hook.ORDER)] == list(hook.ORDER)
+    text = hook.index(gallery)
+    assert all(f"]({e.stem}.md)" in text and f"({e.stem}.thumb.png)" in text for e in gallery)
+    assert hook.cite("[Papaioannou2023, Eq. (13)] and [Oh2021]") == (
+        "[[Papaioannou2023](../references.md), Eq. (13)] and [[Oh2021](../references.md)]")
