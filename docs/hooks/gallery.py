@@ -154,10 +154,11 @@ def run(example: Example, package: str) -> tuple[bytes, str, float]:
             raise PluginError(f"gallery: examples/{example.path.name} drew no {figure.name} in its out_dir "
                               "(main(out_dir, small) saves <out_dir>/<stem>.png and returns {'figure': path, ...})")
         png = figure.read_bytes()
+        output = out.getvalue().replace(tmp, "$TMPDIR")  # no build machine's path on the page
     cached.mkdir(parents=True, exist_ok=True)
     (cached / "figure.png").write_bytes(png)
-    (cached / "run.json").write_text(json.dumps({"output": out.getvalue(), "seconds": seconds}))
-    return png, out.getvalue(), seconds
+    (cached / "run.json").write_text(json.dumps({"output": output, "seconds": seconds}))
+    return png, output, seconds
 
 
 @contextlib.contextmanager
