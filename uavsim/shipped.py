@@ -23,9 +23,18 @@ from pathlib import Path
 from .mission import MissionError
 
 
+def data_folder(kind: str) -> Path:
+    """The folder of the shipped ``kind`` (``"missions"`` or ``"worlds"``): the package's
+    ``uavsim/data/<kind>`` where installed from a wheel, else (``uavsim`` imported from
+    its source tree) the repository's root ``<kind>/`` (:mod:`uavsim.data`)."""
+    data = Path(str(files("uavsim.data")))
+    installed = data / kind
+    return installed if installed.is_dir() else data.parents[1] / kind
+
+
 def missions_folder() -> Path:
-    """The folder of the shipped missions (the repository's ``missions/`` in an editable install)."""
-    return Path(str(files("uavsim.data.missions")))
+    """The folder of the shipped missions."""
+    return data_folder("missions")
 
 
 def shipped_missions() -> dict[str, Path]:
