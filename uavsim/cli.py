@@ -1,5 +1,7 @@
-"""Command line: ``uavsim validate | plan | run | compare | sweep | tma reproduce | world generate``.
+"""Command line: ``uavsim validate | plan | run | compare | sweep | missions | tma reproduce | world generate``.
 
+A mission argument is a file, or the name of a mission shipped with uavsim (``uavsim run
+paper``; ``uavsim missions`` lists them, :mod:`uavsim.shipped`).
 Every command validates its mission first.  A bad file prints one line
 ``error: <file>: <key.path>: <what is wrong>`` to stderr and exits 2; so does a bad
 argument or an output path that cannot be written (checked before any work starts).
@@ -24,6 +26,7 @@ import numpy as np
 from .config import load_mission, parse_value
 from .files import write_atomic, write_json
 from .mission import Mission, MissionError, mission_errors
+from .shipped import mission_path, shipped_missions
 from .uav import BASELINE, PLANNERS
 
 
@@ -48,6 +51,12 @@ def _summary(m: Mission) -> str:
 
 def cmd_validate(args: argparse.Namespace) -> int:
     print(_summary(load_mission(args.mission)))
+    return 0
+
+
+def cmd_missions(args: argparse.Namespace) -> int:
+    for name, path in shipped_missions().items():
+        print(f"{name:<18} {load_mission(path).description}\n{'':<18} {path}")
     return 0
 
 
@@ -562,6 +571,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("mission")
     p.set_defaults(func=cmd_validate)
 
+    p = sub.add_parser("missions", help="list the missions shipped with uavsim; run one by name (uavsim run paper)")
+    p.set_defaults(func=cmd_missions)
+
     p = sub.add_parser("plan", help="solve the guidance problem (P1) for every target from its prior")
     p.add_argument("mission")
     p.add_argument("--json", action="store_true", help="print per-target plans as JSON")
@@ -668,6 +680,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     args = parser.parse_args(argv)
     try:
+        if getattr(args, "mission", None):  # a file, or a shipped mission's name
+            args.mission = mission_path(args.mission)
         return args.func(args)
     except (MissionError, UsageError) as exc:
         print(f"error: {exc}", file=sys.stderr)
