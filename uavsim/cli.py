@@ -16,8 +16,10 @@ import importlib.util
 import json
 import math
 import os
+import signal
 import sys
 import tempfile
+import threading
 from dataclasses import replace
 from pathlib import Path
 
@@ -671,7 +673,24 @@ def _repeated_flag(argv: list[str]) -> str | None:
     return None
 
 
+def _interrupt_once(signum, frame) -> None:
+    """Ctrl-C: stop the command (KeyboardInterrupt); a second Ctrl-C while it stops, as a
+    terminal sends when the key is pressed again, must not cut the clean-up short."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    raise KeyboardInterrupt
+
+
 def main(argv: list[str] | None = None) -> int:
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGINT, _interrupt_once)
+        try:
+            return _main(argv)
+        finally:
+            signal.signal(signal.SIGINT, previous)
+    return _main(argv)
+
+
+def _main(argv: list[str] | None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser()
     repeated = _repeated_flag(argv)
