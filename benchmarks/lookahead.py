@@ -1,4 +1,4 @@
-"""The non-myopic ``lookahead`` UAV against ``optimized`` (issue 18): paired, 100 trials.
+"""The non-myopic ``lookahead`` UAV against ``optimized``: paired, 100 trials.
 
     python benchmarks/lookahead.py [--trials 100] [--workers N] [--out runs/lookahead]
 

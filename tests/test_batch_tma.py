@@ -2,7 +2,7 @@
 (estimators/nrpso.py, estimators/oh2021.py; Oh, Shi, Choi 2021).
 
 Derivatives are checked against central finite differences; the study against the
-paper's statements (Sec. 4) and the reference figures of notes/paper003-000.md, with
+paper's statements (Sec. 4) and the figures of an independent reference implementation, with
 bands from the binomial or chi-square spread of the run counts used here.
 """
 
@@ -129,8 +129,8 @@ def test_cholesky_solve_and_its_failures():
     assert not ok[0, :2].any() and ok[0, 2:].all() and (x[0, :2] == 0).all() and (det[0, :2] == 0).all()
 
 
-def test_crlb_matches_the_notes_and_finite_differences():
-    """notes/paper003-000.md, 003 results table: CRLB position RMSE of target 2 at K = 600:
+def test_crlb_matches_the_reference_and_finite_differences():
+    """The independent reference implementation's results: CRLB position RMSE of target 2 at K = 600:
     273 m (0.1 deg), 1364 m (0.5 deg), 5183 m (1.9 deg); det F at the truth 1.7e3, 4.4e-3,
     1.0e-7 (SI).  The bound scales with sigma exactly."""
     t = oh2021.times(600)

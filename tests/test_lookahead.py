@@ -1,4 +1,4 @@
-"""The non-myopic ``lookahead`` policy (issue 18): its score, its pruning, its registry entry."""
+"""The non-myopic ``lookahead`` policy: its score, its pruning, its registry entry."""
 
 from dataclasses import replace
 

@@ -163,7 +163,7 @@ def test_unknown_filter_is_refused():
 
 
 def test_estimator_library_imports_numpy_and_scipy_only():
-    """The library never imports the simulator or its plotting/solver stack (STYLE.md)."""
+    """The library never imports the simulator or its plotting/solver stack (estimators/__init__.py)."""
     code = ("import sys, uavsim.estimators.li2022, uavsim.estimators.reproduce, uavsim.estimators.constraints; "
             "print(' '.join(sorted(m for m in sys.modules if m.split('.')[0] in "
             "('matplotlib', 'cvxpy', 'rerun', 'highspy') or (m.startswith('uavsim.') and "
