@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 from harness import machine, write
 
-from uavsim.estimators import batch, nrpso, oh2021
+from uavsim.estimators import batch, nrpso
+from uavsim.studies import oh2021
 
 NOTES_SECONDS = {"nr": 0.12, "pso": 0.24, "nrpso": 0.66}
 

@@ -16,8 +16,8 @@ import time
 import numpy as np
 from harness import parser, run
 
-from uavsim.estimators import li2022 as L
 from uavsim.estimators.plmmse import FILTERS
+from uavsim.studies import li2022 as L
 
 
 def _median_seconds(fn, repeats: int) -> float:

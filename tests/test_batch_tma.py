@@ -1,5 +1,5 @@
 """Batch maximum-likelihood TMA (estimators/batch.py) and 003's NR, PSO and NRPSO
-(estimators/nrpso.py, estimators/oh2021.py; Oh, Shi, Choi 2021).
+(estimators/nrpso.py, studies/oh2021.py; Oh, Shi, Choi 2021).
 
 Derivatives are checked against central finite differences; the study against the
 paper's statements (Sec. 4) and the figures of an independent reference implementation, with
@@ -11,7 +11,8 @@ import json
 import numpy as np
 import pytest
 
-from uavsim.estimators import batch, nrpso, oh2021
+from uavsim.estimators import batch, nrpso
+from uavsim.studies import oh2021
 
 SEED = 2021
 

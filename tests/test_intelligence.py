@@ -1,5 +1,5 @@
 """Intelligence-aware constrained batch MLE and its bounds (estimators/intelligence.py)
-and 000's study (estimators/oliva2021.py; Oliva, Farina, Setola 2021).
+and 000's study (studies/oliva2021.py; Oliva, Farina, Setola 2021).
 
 Constraint functions, their Jacobians and the augmented Lagrangian's derivatives are
 checked against central finite differences; the bounds against 000 Table 3 and
@@ -15,7 +15,7 @@ import pytest
 
 from uavsim.estimators import batch
 from uavsim.estimators import intelligence as intel
-from uavsim.estimators import oliva2021 as oliva
+from uavsim.studies import oliva2021 as oliva
 
 SEED = 2021
 

@@ -3,6 +3,7 @@
 import ast
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -54,10 +55,36 @@ def test_only_the_entry_points_import_the_file_reader():
 
 
 def test_the_estimator_library_stands_alone():
+    """The methods (``uavsim.estimators``) import none of uavsim's other modules: not the
+    simulator, not a bound, and not the papers' studies, which use them."""
     for name, deps in modules().items():
         if name.startswith("uavsim.estimators"):
             inner = {d for d in deps if d.startswith("uavsim")}
+            assert not any(d.startswith("uavsim.studies") for d in inner), (name, inner)
             assert all(d.startswith("uavsim.estimators") for d in inner), (name, inner)
+
+
+def test_the_studies_use_the_library_not_the_simulator():
+    """A study (``uavsim.studies``) imports the methods, the recursive CRLB and other studies."""
+    allowed = ("uavsim.studies", "uavsim.estimators", "uavsim.bounds.crlb")
+    for name, deps in modules().items():
+        if name.startswith("uavsim.studies"):
+            inner = {d for d in deps if d.startswith("uavsim")}
+            assert all(d.startswith(allowed) for d in inner), (name, inner)
+
+
+def test_the_library_and_the_studies_import_numpy_and_scipy_only():
+    """Importing every method and study loads no simulator module and none of the
+    plotting and solver stack (matplotlib, cvxpy, rerun, HiGHS): users of the library need
+    numpy and scipy only."""
+    library = ("uavsim.estimators", "uavsim.studies")
+    names = sorted({m.removesuffix(".__init__") for m in modules() if m.startswith(library)})
+    code = (f"import sys, {', '.join(names)}; "
+            "print(' '.join(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('matplotlib', 'cvxpy', 'rerun', 'highspy') or (m.startswith('uavsim.') and not "
+            "m.startswith(('uavsim.estimators', 'uavsim.studies', 'uavsim.bounds.crlb')) and m != 'uavsim.bounds'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT).stdout
+    assert out.strip() == ""
 
 
 def test_the_loop_asks_interfaces_not_types():

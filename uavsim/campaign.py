@@ -44,10 +44,10 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from . import metrics
+from .bounds.pcrlb import Bound, pcrlb_planned
 from .files import write_atomic
 from .guidance import Guidance
 from .mission import Mission, mission_errors
-from .pcrlb import Bound, pcrlb_planned
 from .sim import STAGES, Simulation
 from .uav import BASELINE, MANOEUVRES, make_policy
 
@@ -460,7 +460,7 @@ def _recorded_trial(mission, planner, seeds, record) -> TrialResult:
 
 def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: float) -> dict:
     """The campaign summary (JSON-ready): RMSE per step and target, per-trial mean squared
-    errors, NEES consistency, the PCRLB of the flown paths (:mod:`.pcrlb`), timing,
+    errors, NEES consistency, the PCRLB of the flown paths (:mod:`.bounds.pcrlb`), timing,
     statuses."""
     results = sorted(results, key=lambda r: r.index)
     err2 = np.stack([r.err2 for r in results])  # (trials, steps, M)
@@ -498,8 +498,8 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
 
 
 def accuracy_floor(mission: Mission, sensor, results: list[TrialResult]) -> Bound | None:
-    """The PCRLB of the campaign's trials (:func:`.pcrlb.pcrlb_planned`), or None for a
-    stochastic truth, whose bound is not built (see :mod:`.pcrlb`)."""
+    """The PCRLB of the campaign's trials (:func:`.bounds.pcrlb.pcrlb_planned`), or None for a
+    stochastic truth, whose bound is not built (see :mod:`.bounds.pcrlb`)."""
     if mission.truth != "planned":
         return None
     return pcrlb_planned(np.stack([r.sensitivity for r in results]), np.stack([r.truth for r in results]),

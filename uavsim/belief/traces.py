@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..pcrlb import bearing_gradients
+from ..bounds.pcrlb import bearing_gradients
 
 BLOCK_ELEMENTS = 1 << 16  # candidate x target x particle entries per block: 256 kB float32 arrays stay in L2
 
@@ -97,7 +97,7 @@ def gaussian_traces(candidates: np.ndarray, means: np.ndarray, covs: np.ndarray,
     """Eq. (12)-(13) for Gaussian beliefs (the pseudo-linear filters): the trace after a
     noise-free bearing linearised at the mean, ``tr(P) - |P h|^2 / (h P h^T + sigma^2)``,
     ``h = (dy, -dx, 0, ...) / r^2`` the gradient of ``atan2(dx, dy)``
-    (:func:`uavsim.pcrlb.bearing_gradients`, ``r`` floored at ``min_range``).
+    (:func:`uavsim.bounds.pcrlb.bearing_gradients`, ``r`` floored at ``min_range``).
 
     candidates (..., C, >=2); means (M, >=2); covs (..., M, n, n), x and y first (leading
     dimensions broadcast).  Returns (..., C, M)."""

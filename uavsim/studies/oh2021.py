@@ -12,7 +12,7 @@ Metrics (Eq. 14-16): a run diverges when its estimated initial position is more 
 20 km from the observer (at the first scan), or is not finite; position and velocity
 RMSE over the N runs that did not diverge; divergence in percent of all runs.  The
 bound beside them is the batch CRLB, the inverse Fisher information at the truth
-(:func:`.batch.crlb`).
+(:func:`uavsim.estimators.batch.crlb`).
 
 Seeds: run r of every cell draws from ``SeedSequence(seed).spawn(runs)[r]``, spawned into
 five streams (noise, NR, PSO, NRPSO, PSO with 1500 particles): the same standard normals in every cell with the
@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .batch import crlb, polynomial_basis
-from .nrpso import newton_raphson, nrpso, problem, pso
+from ..estimators.batch import crlb, polynomial_basis
+from ..estimators.nrpso import newton_raphson, nrpso, problem, pso
 
 DURATION = 600.0
 TURN_START, TURN_END, TURN_RATE_DEG, SPEED = 200.0, 300.0, 0.6, 3.0
