@@ -27,7 +27,7 @@ from ..declare import setting
 from ..mission import Mission
 from ..sensing import Sensor
 from .fixed import FixedSensors, FixedSensorsConfig, NoSensor
-from .grid import GridOptimizer, UavConfig, admissible, candidates, move_offsets, uav_start
+from .grid import GridOptimizer, UavConfig, admissible, candidates, decide, move_offsets, uav_start
 from .lookahead import Lookahead, LookaheadConfig
 from .manoeuvres import MANOEUVRES, Manoeuvre, ManoeuvreConfig, Route, manoeuvre_loop, manoeuvre_route, place_loop
 
@@ -38,7 +38,7 @@ BASELINE = "baseline"  # the policy every study is measured against
 
 __all__ = ["POLICIES", "PLANNERS", "BASELINE", "MANOEUVRES", "Policy", "PlannerConfig", "UavConfig", "ManoeuvreConfig",
            "FixedSensorsConfig", "LookaheadConfig", "GridOptimizer", "Lookahead", "Manoeuvre", "FixedSensors",
-           "NoSensor", "Route", "make_policy",
+           "NoSensor", "Route", "make_policy", "decide",
            "admissible", "candidates", "move_offsets", "uav_start", "manoeuvre_loop", "manoeuvre_route", "place_loop"]
 
 
