@@ -95,6 +95,36 @@ def test_the_loop_asks_interfaces_not_types():
     assert not any(f'"{name}"' in text for name in POLICIES)
 
 
+
+#: Test files that test a whole rather than one module, and what.
+CROSS_CUTTING = {
+    "layout": "the code's shape",
+    "evaluation": "what a campaign measures: metrics, the truth drawn from the prior, the baseline",
+    "controls": "every study's filters against their no-update controls",
+    "findings": "the paper's findings, by campaigns",
+    "reference": "short campaigns against stored summaries",
+    "filter_reference": "the particle filter and a trial against stored outputs",
+    "settings": "every setting through the reader, the writer, the generator and the reference page",
+    "fuzz": "mutated missions and worlds through the reader and a campaign",
+    "refusals": "bad input through every command",
+    "examples": "examples/ run as a user runs them",
+}
+
+
+def test_every_test_file_names_what_it_tests():
+    """``tests/test_X.py`` tests module or package X of uavsim, named by its own name
+    (``test_plkf.py``) or by its path (``test_guidance_qp.py``), or is one of the
+    :data:`CROSS_CUTTING` tests."""
+    names = set()
+    for path in PACKAGE.rglob("*.py"):
+        parts = [p for p in path.relative_to(PACKAGE).with_suffix("").parts if p != "__init__"]
+        if parts:
+            names |= {parts[-1], "_".join(parts)}
+    tests = {p.stem.removeprefix("test_") for p in (ROOT / "tests").glob("test_*.py")}
+    assert sorted(tests - names - set(CROSS_CUTTING)) == []
+    assert sorted(set(CROSS_CUTTING) - tests) == [], "an allowed cross-cutting test that no longer exists"
+    assert sorted(set(CROSS_CUTTING) & names) == [], "a module's tests belong under its name, not the allow-list"
+
 @pytest.fixture(params=KINDS)
 def belief(request):
     """Every filter kind through the one interface: two targets, a prior, one step."""

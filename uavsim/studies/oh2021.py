@@ -221,11 +221,11 @@ def _fmt(x, spec):
 
 def table(result: dict) -> str:
     """The printed summary: per target, the sigma sweep (K = 600) and the K sweep (0.5 deg):
-    divergence (%) and position RMSE (m) per method, the CRLB, and for NR the reference
-    implementation's divergence from the notes."""
+    divergence (%) and position RMSE (m) per method, the CRLB, and for NR the independent
+    reference implementation's divergence."""
     methods = result["methods"]
     head = f"{'T':>2}{'sigma':>6}{'K':>5}" + "".join(f"{m + ' div%':>11}{m + ' pos':>10}" for m in methods)
-    head += f"{'CRLB pos':>10}{'notes NR div%':>15}{'no-bearings pos':>16}"
+    head += f"{'CRLB pos':>10}{'ref. NR div%':>15}{'no-bearings pos':>16}"
     lines = [f"oh2021 (003 Figs. 4-5): {result['runs']} runs per cell, seed {result['seed']}, "
              f"{len(result['cells'])} cells in {result['wall_seconds']:.0f} s ({result['workers']} workers)", head]
     for c in result["cells"]:
