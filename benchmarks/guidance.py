@@ -13,7 +13,7 @@ budgets, and prints before/after: the QPs alone (CPU seconds per
 QP as solved inside the plans), the cold plans and the re-plans (wall and CPU seconds),
 the largest relative difference of the objectives, how the QPs were settled
 (:attr:`uavsim.guidance.qp.FixedFaceQP.counts`), and the seconds per closed-loop step
-by stage (``--trials`` trials of the optimized planner, mean, median and p90).
+by stage (``--trials`` trials of the optimized policy, mean, median and p90).
 
     python benchmarks/guidance.py [--mission missions/paper.toml] [--steps 50] [--seed 1] [--before] [--trials 2]
         [--no-scip] [--reference-plans]
@@ -112,7 +112,7 @@ def run(mission, steps, seed, before: bool) -> dict:
 
 def closed_loop(mission, trials, before: bool) -> tuple[np.ndarray, float]:
     """Wall seconds per step by stage (:data:`uavsim.sim.STAGES`) of ``trials``
-    closed-loop trials of the optimized planner, one QP method; and the CPU seconds per
+    closed-loop trials of the optimized policy, one QP method; and the CPU seconds per
     step (whole trials, resets included: what a loaded machine does not inflate)."""
     g = Guidance(mission.world, mission.dynamics, mission.guidance)
     QpTimer(g, clarabel=before)
@@ -171,7 +171,7 @@ def before_after(mission, steps, seed, trials) -> None:
     if trials <= 0:
         return
     loops = {k: closed_loop(mission, trials, k == "before") for k in ("before", "after")}
-    print(f"\nclosed loop, optimized planner, {len(mission.targets)} targets, {trials} trials x {mission.steps} steps "
+    print(f"\nclosed loop, optimized policy, {len(mission.targets)} targets, {trials} trials x {mission.steps} steps "
           "(ms per step: mean median p90)")
     print(f"{'':<26}{'before':>24}{'after':>24}{'mean speed-up':>17}")
     for i, stage in enumerate(STAGES):
