@@ -73,6 +73,15 @@ def test_the_studies_use_the_library_not_the_simulator():
             assert all(d.startswith(allowed) for d in inner), (name, inner)
 
 
+def test_the_belief_answers_the_policies_without_importing_them():
+    """A belief computes its pseudo-posterior traces (Eq. 12); the policies (``uavsim.uav``)
+    ask for them and decide (Eq. 13).  So the belief, and the bounds below it, import no
+    policy and nothing of the loop."""
+    above = ("uavsim.uav", "uavsim.sim", "uavsim.campaign", "uavsim.config")
+    for name, deps in modules().items():
+        if name.startswith(("uavsim.belief", "uavsim.bounds")):
+            assert not {d for d in deps if d.startswith(above)}, name
+
 def test_the_library_and_the_studies_import_numpy_and_scipy_only():
     """Importing every method and study loads no simulator module and none of the
     plotting and solver stack (matplotlib, cvxpy, rerun, HiGHS): users of the library need
