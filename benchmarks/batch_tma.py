@@ -11,8 +11,8 @@ one pass), the CPU seconds per run of each method at every K (target 2, 0.5 deg;
 over ``--workers`` processes).  ``--grid`` runs that grid once (``uavsim tma reproduce
 oh2021``) and prints its wall time and the 1000-run NR divergence of target 2 at 1.9 deg
 beside 40%.  ``--compare-dtypes`` runs the same runs in float32 and float64 and prints
-the statistics of both (the float32 swarm must not change them).  The reference
-implementation of the notes: NR 0.12 s, PSO 0.24 s, NRPSO 0.66 s per run on one core,
+the statistics of both (the float32 swarm must not change them).  An independent
+reference implementation: NR 0.12 s, PSO 0.24 s, NRPSO 0.66 s per run on one core,
 about 13 h for the grid.
 """
 
@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 from harness import machine, write
 
-from uavsim.estimators import batch, nrpso, oh2021
+from uavsim.estimators import batch, nrpso
+from uavsim.studies import oh2021
 
 NOTES_SECONDS = {"nr": 0.12, "pso": 0.24, "nrpso": 0.66}
 
@@ -110,12 +111,12 @@ def estimate(args) -> None:
               + f"{sum(secs.values()):8.4f}")
     one = single(oh2021.SWEEP_SIGMA_DEG, max(args.runs // 4, 5))
     print("  one run at a time (BatchTMA), K = 600  " + "".join(f"{v:7.4f}" for v in one.values()))
-    print("  notes' reference (one core, K = 600)  " + "".join(f"{v:7.3f}" for v in NOTES_SECONDS.values())
+    print("  reference impl. (one core, K = 600)  " + "".join(f"{v:7.3f}" for v in NOTES_SECONDS.values())
           + f"{sum(NOTES_SECONDS.values()):8.3f}")
     grid = oh2021.cells()
     cpu = sum(1000 * sum(by_k[c.scans].values()) for c in grid)
     print(f"\ngrid: {len(grid)} cells x 1000 runs: {cpu / 60:.1f} CPU min; over {args.workers} workers about "
-          f"{cpu / args.workers / 60:.1f} min wall (the notes' straightforward loop: about 13 h on one core)")
+          f"{cpu / args.workers / 60:.1f} min wall (the reference implementation's loop: about 13 h on one core)")
     if args.json:
         write(Path(args.json), {"settings": vars(args), "kernels": kernels, "per_run": rows,
                                 "single": {"sigma_deg": oh2021.SWEEP_SIGMA_DEG, "seconds": one},

@@ -13,12 +13,11 @@ import time
 import numpy as np
 from harness import parser, run
 
-from uavsim.belief.traces import decide
 from uavsim.campaign import run_trial, trial_seeds
 from uavsim.config import load_mission
 from uavsim.guidance import Guidance
 from uavsim.sim import STAGES, Simulation
-from uavsim.uav import candidates
+from uavsim.uav import candidates, decide
 
 
 def decision_seconds(mission, repeats=200) -> np.ndarray:

@@ -1,11 +1,15 @@
-"""Particle filter step and Eq. (13) decision, before and after issue 17, interleaved.
+"""Particle filter step and Eq. (13) decision, before and after their speed-ups, interleaved.
 
     OPENBLAS_NUM_THREADS=1 taskset -c 0 python benchmarks/filter_step.py [--repeats 200] [--decisions 15]
+        [--before 8c473d3]
     OPENBLAS_NUM_THREADS=1 taskset -c 0 python benchmarks/filter_step.py --alone 1500
 
-"Before" is ``uavsim/filtering.py`` and ``uavsim/planning.py`` as of commit ``--before``
-(read with ``git show``, run against this checkout's other modules); "after" is this
-checkout.  Both run in one process, alternating call by call on the same inputs, so
+"Before" is the particle filter and the pseudo-posterior traces as of commit ``--before``
+(default 8c473d3, the last commit before the speed-ups of f09163a and 93a62f9), read with
+``git show`` from wherever they lived then (:data:`PATHS`: ``uavsim/filtering.py`` and
+``uavsim/planning.py`` until commit 71d646d, ``uavsim/belief/particle.py`` and
+``uavsim/belief/traces.py`` since) and run against this checkout's other modules; "after"
+is this checkout.  Both run in one process, alternating call by call on the same inputs, so
 machine load hits both alike; each figure is the median (and the minimum) over the
 repeats.  Printed:
 
@@ -29,7 +33,6 @@ from pathlib import Path
 import numpy as np
 from harness import parser, run
 
-import uavsim
 from uavsim.belief import particle as filtering
 from uavsim.belief import traces as planning
 from uavsim.config import load_mission
@@ -39,17 +42,26 @@ from uavsim.uav import move_offsets
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def before(module: str, commit: str) -> types.ModuleType | None:
-    """``uavsim.<module>`` as of ``commit``, or None when git cannot show it."""
-    try:
-        src = subprocess.run(["git", "show", f"{commit}:uavsim/{module}.py"], cwd=ROOT, check=True,
-                             capture_output=True, text=True).stdout
-    except (OSError, subprocess.CalledProcessError):
-        return None
-    mod = types.ModuleType(f"uavsim._{module}_before")
-    mod.__package__ = uavsim.__name__  # its relative imports resolve against this checkout
-    exec(compile(src, f"{commit}:uavsim/{module}.py", "exec"), mod.__dict__)
-    return mod
+#: Where each role's code has lived, newest first (a commit's module is the first path it has).
+PATHS = {"filter": ("uavsim/belief/particle.py", "uavsim/filtering.py"),
+         "traces": ("uavsim/belief/traces.py", "uavsim/planning.py")}
+
+
+def before(role: str, commit: str) -> types.ModuleType | None:
+    """The module of ``role`` (:data:`PATHS`) as of ``commit``, or None when git cannot show
+    it there (an unknown commit, or one before the role's code existed)."""
+    for path in PATHS[role]:
+        try:
+            src = subprocess.run(["git", "show", f"{commit}:{path}"], cwd=ROOT, check=True,
+                                 capture_output=True, text=True).stdout
+        except (OSError, subprocess.CalledProcessError):
+            continue
+        name = path.removesuffix(".py").replace("/", ".")
+        mod = types.ModuleType(f"{name}_before")
+        mod.__package__ = name.rsplit(".", 1)[0]  # its relative imports resolve against this checkout
+        exec(compile(src, f"{commit}:{path}", "exec"), mod.__dict__)
+        return mod
+    return None
 
 
 def faults() -> int:
@@ -131,11 +143,12 @@ def measure(args) -> None:
         print(f"filter step alone, 1 target x 5000: median {1e3 * np.median(step):.3f} ms, "
               f"min {1e3 * step.min():.3f} ms, p90 {1e3 * np.quantile(step, 0.9):.3f} ms over {args.alone} steps")
         return
-    old_f, old_p = before("filtering", args.before), before("planning", args.before)
-    if old_f is None:
-        print(f"git cannot show commit {args.before}: 'after' figures only")
-    filters = {"before": old_f, "after": filtering} if old_f else {"after": filtering}
-    plans = {"before": old_p, "after": planning} if old_p else {"after": planning}
+    old_f, old_p = before("filter", args.before), before("traces", args.before)
+    if old_f is None or old_p is None:
+        print(f"git cannot show the filter and the traces at commit {args.before} "
+              f"(tried {', '.join(PATHS['filter'] + PATHS['traces'])}): 'after' figures only")
+    filters = {"before": old_f, "after": filtering} if old_f and old_p else {"after": filtering}
+    plans = {"before": old_p, "after": planning} if old_f and old_p else {"after": planning}
 
     print("ms per call, median (min), one process, versions alternating call by call")
     for m in (1, 4):

@@ -1,4 +1,4 @@
-"""Guidance (P1) speed on the paper mission: cold solves, a rolling horizon, SCIP; before/after issue 17.
+"""Guidance (P1) speed on the paper mission: cold solves, a rolling horizon, SCIP; before/after DAQP (commit d6ed022).
 
 For every target: one cold solve from the prior mean; then a rolling horizon of
 ``--steps`` re-plans, each from the previous plan's first predicted mean plus process
@@ -7,13 +7,13 @@ plan.  Prints median and max re-plan seconds, master MILPs per re-plan, the larg
 certified gap, and the statuses.  With pyscipopt installed, SCIP (through cvxpy, no gap
 limit) cold-solves the same problems for the speed ratio (``--no-scip`` skips it).
 
-``--before`` also runs everything with the fixed-face QP of before issue 17 (Clarabel,
-a new solver object per QP, :class:`uavsim.guidance.qp.ClarabelQP`), same seed and
+``--before`` also runs everything with the fixed-face QP solved by Clarabel, the method
+before DAQP (commit d6ed022; a new solver object per QP, :class:`uavsim.guidance.qp.ClarabelQP`), same seed and
 budgets, and prints before/after: the QPs alone (CPU seconds per
 QP as solved inside the plans), the cold plans and the re-plans (wall and CPU seconds),
 the largest relative difference of the objectives, how the QPs were settled
 (:attr:`uavsim.guidance.qp.FixedFaceQP.counts`), and the seconds per closed-loop step
-by stage (``--trials`` trials of the optimized planner, mean, median and p90).
+by stage (``--trials`` trials of the optimized policy, mean, median and p90).
 
     python benchmarks/guidance.py [--mission missions/paper.toml] [--steps 50] [--seed 1] [--before] [--trials 2]
         [--no-scip] [--reference-plans]
@@ -61,7 +61,7 @@ def rolling_plans(guidance, mission, target, steps, rng):
 
 class QpTimer:
     """Times the fixed-face QP of every horizon's program (``clarabel``: Clarabel only, the
-    method before issue 17) and keeps the CPU seconds of each QP solved and the QPs'
+    method before DAQP, commit d6ed022) and keeps the CPU seconds of each QP solved and the QPs'
     :attr:`~uavsim.guidance.qp.FixedFaceQP.counts`."""
 
     def __init__(self, guidance: Guidance, clarabel: bool):
@@ -112,7 +112,7 @@ def run(mission, steps, seed, before: bool) -> dict:
 
 def closed_loop(mission, trials, before: bool) -> tuple[np.ndarray, float]:
     """Wall seconds per step by stage (:data:`uavsim.sim.STAGES`) of ``trials``
-    closed-loop trials of the optimized planner, one QP method; and the CPU seconds per
+    closed-loop trials of the optimized policy, one QP method; and the CPU seconds per
     step (whole trials, resets included: what a loaded machine does not inflate)."""
     g = Guidance(mission.world, mission.dynamics, mission.guidance)
     QpTimer(g, clarabel=before)
@@ -139,7 +139,7 @@ def before_after(mission, steps, seed, trials) -> None:
     """Print before/after figures (module docstring)."""
     runs = {"before": run(mission, steps, seed, before=True), "after": run(mission, steps, seed, before=False)}
     plans = "DAQP's optima" if not OuterApproximation.reference_plans else "Clarabel's re-solve of the chosen QP"
-    print(f"\nbefore/after issue 17 (ms: median p90 max; CPU = process time, wall = perf_counter); "
+    print(f"\nbefore (Clarabel) / after (DAQP) (ms: median p90 max; CPU = process time, wall = perf_counter); "
           f"the same budgets; plans returned after: {plans}")
     print(f"{'':<26}{'before':>24}{'after':>24}{'median speed-up':>17}")
     for label, key in (("QP alone, CPU", "qp_all"),):
@@ -171,7 +171,7 @@ def before_after(mission, steps, seed, trials) -> None:
     if trials <= 0:
         return
     loops = {k: closed_loop(mission, trials, k == "before") for k in ("before", "after")}
-    print(f"\nclosed loop, optimized planner, {len(mission.targets)} targets, {trials} trials x {mission.steps} steps "
+    print(f"\nclosed loop, optimized policy, {len(mission.targets)} targets, {trials} trials x {mission.steps} steps "
           "(ms per step: mean median p90)")
     print(f"{'':<26}{'before':>24}{'after':>24}{'mean speed-up':>17}")
     for i, stage in enumerate(STAGES):
@@ -190,7 +190,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--scip-time-limit", type=float, default=120.0)
     ap.add_argument("--no-scip", action="store_true", help="skip the SCIP comparison")
-    ap.add_argument("--before", action="store_true", help="also print before/after issue 17")
+    ap.add_argument("--before", action="store_true", help="also print before (Clarabel) / after (DAQP)")
     ap.add_argument("--trials", type=int, default=2, help="closed-loop trials per method for --before's step times")
     ap.add_argument("--reference-plans", action="store_true",
                     help="plans re-solved by Clarabel (OuterApproximation.reference_plans)")

@@ -5,7 +5,7 @@
 Per filter (PL-MMSE, PLKF, BC-PLKF, IVKF under GM noise): microseconds per scan for one run
 (as a paper times a filter) and per scan per run with all runs batched (as
 `uavsim tma reproduce` runs them); per constraint method: microseconds per estimate,
-batched.  Then the wall time of the three studies (12 rows x runs each; the issue's target:
+batched.  Then the wall time of the three studies (12 rows x runs each; the target set for it:
 all three at 1000 runs in under 10 s on 2 cores).  Medians over repeats.
 """
 
@@ -16,8 +16,8 @@ import time
 import numpy as np
 from harness import parser, run
 
-from uavsim.estimators import li2022 as L
 from uavsim.estimators.plmmse import FILTERS
+from uavsim.studies import li2022 as L
 
 
 def _median_seconds(fn, repeats: int) -> float:

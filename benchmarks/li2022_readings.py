@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from harness import parser, run
 
-from uavsim.estimators import li2022 as L
+from uavsim.studies import li2022 as L
 
 READINGS = {
     "ours": L.Reading(),

@@ -1,4 +1,4 @@
-"""The non-myopic ``lookahead`` UAV against ``optimized`` (issue 18): paired, 100 trials.
+"""The non-myopic ``lookahead`` UAV against ``optimized``: paired, 100 trials.
 
     python benchmarks/lookahead.py [--trials 100] [--workers N] [--out runs/lookahead]
 
@@ -9,10 +9,10 @@ three generated worlds (``uavsim world generate --seed 12 --obstacles 12 --targe
 ``--seed 101 --obstacles 6 --targets 4`` and ``--seed 23 --obstacles 9 --targets 4``).
 The policy's form and horizon were chosen on the first 30 trials of the first four
 settings; world 23 was added afterwards and took no part in the choice.  Printed per
-setting: time-averaged RMSE of each planner and the ratio lookahead / optimized, the
+setting: time-averaged RMSE of each policy and the ratio lookahead / optimized, the
 paired t of the per-trial mean squared errors (positive: lookahead lower), the share of
 trials lookahead wins and of 2000 bootstrap resamples in which its RMSE is lower, the
-PCRLB along each planner's paths (planned truth only), and the planner's median seconds
+PCRLB along each policy's paths (planned truth only), and the policy's median seconds
 per step.  Campaign folders are kept (``--out``), so a second call only adds trials.
 
 ``--plan-clusters 1`` (the default; the table in the README) moves every particle by the

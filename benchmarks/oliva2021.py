@@ -22,7 +22,8 @@ import time
 import numpy as np
 from harness import parser, run
 
-from uavsim.estimators import batch, intelligence, oliva2021
+from uavsim.estimators import batch, intelligence
+from uavsim.studies import oliva2021
 
 
 def problems(runs: int, seed: int = 2021):

@@ -27,9 +27,9 @@ from pathlib import Path
 import numpy as np
 from harness import parser, run
 
+from uavsim.bounds.pcrlb import _q2_quadrature, information_reduction_factor, pcrlb_for_trials, pcrlb_planned
 from uavsim.campaign import load_trials, run_campaign
 from uavsim.config import load_mission
-from uavsim.pcrlb import _q2_quadrature, information_reduction_factor, pcrlb_for_trials, pcrlb_planned
 from uavsim.uav.fixed import fixed_sensor
 
 

@@ -12,8 +12,8 @@ import numpy as np
 from harness import parser, run
 
 from uavsim.estimators.plkf import FILTERS
-from uavsim.estimators.reproduce import run_filter
-from uavsim.estimators.scenarios import draw_runs, scenario
+from uavsim.studies.huang2021 import run_filter
+from uavsim.studies.huang2021_scenarios import draw_runs, scenario
 
 PAPER = {"bc-plkf": 1.35, "iv-plkf": 2.12, "ub-plkf": 1.0, "vc-plkf": 1.21}
 

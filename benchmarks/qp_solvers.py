@@ -1,4 +1,4 @@
-"""The guidance's fixed-face QPs (issue 17): record the real ones, then compare QP solvers on them.
+"""The guidance's fixed-face QPs: record the real ones, then compare QP solvers on them.
 
     python benchmarks/qp_solvers.py record [--out runs/qps.pkl] [--steps 50] [--worlds 4 12 31]
     python benchmarks/qp_solvers.py compare [--data runs/qps.pkl] [--stride 10] [--block 2] [--solvers ...]

@@ -24,9 +24,9 @@ from pathlib import Path
 
 from harness import ROOT, fill, machine, provenance, write
 
-from uavsim.estimators import li2022, oh2021, oliva2021
-from uavsim.estimators.reproduce import reproduce
-from uavsim.estimators.scenarios import SCENARIOS
+from uavsim.studies import li2022, oh2021, oliva2021
+from uavsim.studies.huang2021 import reproduce
+from uavsim.studies.huang2021_scenarios import SCENARIOS
 
 TABLE2 = {"bc-plkf": 1.35, "iv-plkf": 2.12, "ub-plkf": 1.0, "vc-plkf": 1.21}  # [Huang2021] Table 2
 DATA = ROOT / "docs" / "data"

@@ -76,10 +76,10 @@ from stonesoup.types.track import Track
 from stonesoup.updater.particle import BernoulliParticleUpdater, ParticleUpdater
 
 from uavsim.belief.particle import ParticleFilter, log_likelihood, scan_loglik
-from uavsim.belief.traces import decide, pseudo_traces
+from uavsim.belief.traces import pseudo_traces
 from uavsim.config import load_mission
 from uavsim.sensing import Sensor, observe, wrap_angle
-from uavsim.uav import candidates
+from uavsim.uav import candidates, decide
 
 ROOT = Path(__file__).resolve().parents[1]
 T0 = datetime(2026, 1, 1)

@@ -1,4 +1,4 @@
-"""Guidance and the closed loop on generated worlds (issue 12): every figure per world and overall.
+"""Guidance and the closed loop on generated worlds: every figure per world and overall.
 
     python benchmarks/worlds.py [--worlds 50] [--trials 2] [--steps 50] [--replan-budget S]
                                 [--workers N] [--out runs/worlds] [--resume]

@@ -218,7 +218,7 @@ def test_default_fixed_sensors_follow_the_area_and_are_checked_when_they_run(tmp
     """The default sensors are (0.15, 0.2), (0.8, 0.2), (0.5, 0.9) of the area: in a world
     880 m deep (500, 792), not the paper's (500, 900) outside it, so the mission validates.
     Where a default falls inside an obstacle, the mission still validates (it may never
-    run that planner); running the fixed-sensors planner names the key to set."""
+    run that policy); running the fixed-sensors policy names the key to set."""
     mission = sub(SENSORS, "").replace("925.0, 0.0]", "825.0, 0.0]")
     path = write_case(tmp_path, mission=mission, world=wsub("max_m = [1000.0, 1000.0, 1000.0]",
                                                             "max_m = [1000.0, 880.0, 1000.0]"))

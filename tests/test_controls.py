@@ -6,8 +6,8 @@ filter; the tests below pin which scenarios are informative and which are not.""
 import numpy as np
 import pytest
 
-from uavsim.estimators import li2022
-from uavsim.estimators.reproduce import reproduce
+from uavsim.studies import li2022
+from uavsim.studies.huang2021 import reproduce
 
 RUNS = 100
 
@@ -63,8 +63,8 @@ def test_huang2021_scenario1_iv_plkf_diagnosis():
     noise), so the gain is undefined and the update skipped; in 10 of 300 runs the few
     updates made throw the track 8-209 km off.  Without those 10 runs its RMSE is 1384 m,
     beside BC's: the paper's ranking holds for the runs that do not diverge."""
-    from uavsim.estimators.reproduce import run_filter
-    from uavsim.estimators.scenarios import draw_runs, rmse_curves, scenario, time_averaged
+    from uavsim.studies.huang2021 import run_filter
+    from uavsim.studies.huang2021_scenarios import draw_runs, rmse_curves, scenario, time_averaged
 
     sc = scenario("huang2021-scenario1")
     x0, bearings = draw_runs(sc, 300, 2021)
@@ -83,7 +83,7 @@ def test_oh2021_fixed_truths_sit_where_a_guess_lands():
     0.5-0.8 km off (100 runs: 483-784 m), closer than NR at 1.9 deg (3.8 km on target 2).
     With truths drawn from the search area, as a Monte-Carlo trial should draw them, the
     guess would be about 4.3 km off (the spread of a uniform range on 0-15 km)."""
-    from uavsim.estimators import oh2021
+    from uavsim.studies import oh2021
 
     cell = oh2021.run_cell(oh2021.Cell(2, 1.9, 600), 50, 2021, methods=("nr",))
     assert cell["control"]["rmse_pos_m"] < 1000 < cell["methods"]["nr"]["rmse_pos_m"]
@@ -97,7 +97,7 @@ def test_oliva2021_bearings_beat_the_intelligence_alone():
     at 6 runs, the bound asserted).  The
     published unconstrained rows' average rel vel (2.22 and 2.19, [Oliva2021] Table 2) is
     worse than this control: those rows are solver failures, not estimates (docs)."""
-    from uavsim.estimators import oliva2021
+    from uavsim.studies import oliva2021
 
     control = oliva2021.no_bearings(samples=20_000)
     assert oliva2021.constraints().violation(np.array(control["theta"])) == 0.0

@@ -140,7 +140,7 @@ def test_a_planners_fingerprint_leaves_out_the_other_planners_settings():
 
 
 # fingerprint(small(), "optimized") computed at commit f503995, before plan_clusters existed,
-# when paper.toml's guidance.replan_budget_s was 0.25 (it is 1.0 since issue 12)
+# when paper.toml's guidance.replan_budget_s was 0.25 (it is 1.0 since commit 8a05357)
 PAPER_SMALL_FINGERPRINT = "ef13a88e7f43c7c662d0e9dbe8aad1cf4a46333073f606a6340a8d988bc22991"
 
 

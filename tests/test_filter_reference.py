@@ -1,4 +1,4 @@
-"""The particle filter computes the numbers it computed before the issue 17 speed-ups.
+"""The particle filter computes the numbers it computed at commit 8c473d3, before its speed-ups.
 
 ``tests/data/filter_reference.npz`` holds the outputs of the implementation of commit
 8c473d3 on fixed seeds (``tests/data/make_filter_reference.py`` wrote it once).  The new

@@ -1,4 +1,4 @@
-"""The fixed-face QP of P1 (issue 17): DAQP on the condensed QP against Clarabel on the
+"""The fixed-face QP of P1: DAQP on the condensed QP against Clarabel on the
 sparse form and against cvxpy's model (independent of the compiled matrices), on feasible
 and infeasible face choices, branch-and-bound nodes and the relaxation; its checks and
 its fallback."""
@@ -291,7 +291,7 @@ def test_reference_is_clarabels_solution_of_the_same_qp(paper):
 
 
 def clarabel_only(g: Guidance) -> Guidance:
-    """``g`` with every fixed-face QP by Clarabel (the method before issue 17)."""
+    """``g`` with every fixed-face QP by Clarabel (the method before DAQP, commit d6ed022)."""
     inner = g._model
 
     def model(horizon):
@@ -305,7 +305,7 @@ def clarabel_only(g: Guidance) -> Guidance:
 
 @pytest.mark.parametrize("reference_plans", [False, True])
 def test_plans_match_clarabel_only(reference_plans, monkeypatch):
-    """The issue's criterion: the paper mission's plans (cold, then 3 warm re-plans per
+    """What DAQP had to keep: the paper mission's plans (cold, then 3 warm re-plans per
     target along the plan) have the objectives of the Clarabel-only solver to 1e-6
     relative and the same status, certified within the gap; with ``reference_plans`` the
     plan returned is Clarabel's solution, and its gap includes Clarabel's error (~1e-8)."""

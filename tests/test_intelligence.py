@@ -1,5 +1,5 @@
 """Intelligence-aware constrained batch MLE and its bounds (estimators/intelligence.py)
-and 000's study (estimators/oliva2021.py; Oliva, Farina, Setola 2021).
+and 000's study (studies/oliva2021.py; Oliva, Farina, Setola 2021).
 
 Constraint functions, their Jacobians and the augmented Lagrangian's derivatives are
 checked against central finite differences; the bounds against 000 Table 3 and
@@ -15,7 +15,7 @@ import pytest
 
 from uavsim.estimators import batch
 from uavsim.estimators import intelligence as intel
-from uavsim.estimators import oliva2021 as oliva
+from uavsim.studies import oliva2021 as oliva
 
 SEED = 2021
 
@@ -61,7 +61,7 @@ def test_bad_input_is_refused():
 def test_track_constraints_and_jacobian_by_finite_differences():
     """TrackConstraints.values equals Intelligence.values at Q(k) theta; the Jacobian
     equals central differences (the values are quadratic: differences are exact up to
-    rounding); the truth violates X1 at the last 34 samples only (notes)."""
+    rounding); the truth violates X1 at the last 34 samples only."""
     rng = np.random.default_rng(0)
     theta = oliva.TRUTH + rng.normal(0, 1, (3, 6)) * [3e3, 3e3, 2, 2, 1e-3, 1e-3]
     p = TC.positions(theta)
@@ -131,7 +131,7 @@ def test_constrained_solutions_are_feasible_kkt_points():
 def test_crlb_at_the_truth_matches_table_3():
     """000 Table 3, CRLB column: 7.713e5 for the APF geometry; ours 7.771e5 (bearings at
     k = 1..1800, the distance reading of Eq. 18).  The no-APF row prints the same 7.713e5,
-    which we take for a copy: that geometry's bound is 3.705e7 (notes: 3.705e7)."""
+    which we take for a copy: that geometry's bound is 3.705e7."""
     apf = oliva.bounds(oliva.GAMMA_APF, False)["crlb"]
     assert apf == pytest.approx(7.713e5, rel=0.02)
     assert oliva.bounds(0.0, False)["crlb"] == pytest.approx(3.705e7, rel=1e-3)
@@ -165,7 +165,7 @@ def test_constrained_crlb_properties_and_table_3():
 def test_apf_force_by_hand_and_the_published_direction():
     """f(0) = sum alpha_i x_i - sum beta_i y_i: with the text's weights the repulsion of
     Y1 (area 1.96e9 m^2) dominates: f ~ -area(Y1) y1, -2.034 rad from +x; the caption's
-    weights give 1.311 rad.  Neither is the published 0.749 (notes)."""
+    weights give 1.311 rad.  Neither is the published 0.749."""
     i = oliva.INTELLIGENCE
     f = intel.apf_force(i)
     hand = sum(np.asarray(d.centre) / d.area for d in i.inside) - np.pi * 2.5e4**2 * np.array([4e4, 8e4])

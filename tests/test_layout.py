@@ -1,6 +1,9 @@
 """The code's shape: who reads files, which way imports flow, one interface per role."""
 
 import ast
+import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -52,10 +55,45 @@ def test_only_the_entry_points_import_the_file_reader():
 
 
 def test_the_estimator_library_stands_alone():
+    """The methods (``uavsim.estimators``) import none of uavsim's other modules: not the
+    simulator, not a bound, and not the papers' studies, which use them."""
     for name, deps in modules().items():
         if name.startswith("uavsim.estimators"):
             inner = {d for d in deps if d.startswith("uavsim")}
+            assert not any(d.startswith("uavsim.studies") for d in inner), (name, inner)
             assert all(d.startswith("uavsim.estimators") for d in inner), (name, inner)
+
+
+def test_the_studies_use_the_library_not_the_simulator():
+    """A study (``uavsim.studies``) imports the methods, the recursive CRLB and other studies."""
+    allowed = ("uavsim.studies", "uavsim.estimators", "uavsim.bounds.crlb")
+    for name, deps in modules().items():
+        if name.startswith("uavsim.studies"):
+            inner = {d for d in deps if d.startswith("uavsim")}
+            assert all(d.startswith(allowed) for d in inner), (name, inner)
+
+
+def test_the_belief_answers_the_policies_without_importing_them():
+    """A belief computes its pseudo-posterior traces (Eq. 12); the policies (``uavsim.uav``)
+    ask for them and decide (Eq. 13).  So the belief, and the bounds below it, import no
+    policy and nothing of the loop."""
+    above = ("uavsim.uav", "uavsim.sim", "uavsim.campaign", "uavsim.config")
+    for name, deps in modules().items():
+        if name.startswith(("uavsim.belief", "uavsim.bounds")):
+            assert not {d for d in deps if d.startswith(above)}, name
+
+def test_the_library_and_the_studies_import_numpy_and_scipy_only():
+    """Importing every method and study loads no simulator module and none of the
+    plotting and solver stack (matplotlib, cvxpy, rerun, HiGHS): users of the library need
+    numpy and scipy only."""
+    library = ("uavsim.estimators", "uavsim.studies")
+    names = sorted({m.removesuffix(".__init__") for m in modules() if m.startswith(library)})
+    code = (f"import sys, {', '.join(names)}; "
+            "print(' '.join(sorted(m for m in sys.modules if m.split('.')[0] in "
+            "('matplotlib', 'cvxpy', 'rerun', 'highspy') or (m.startswith('uavsim.') and not "
+            "m.startswith(('uavsim.estimators', 'uavsim.studies', 'uavsim.bounds.crlb')) and m != 'uavsim.bounds'))))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT).stdout
+    assert out.strip() == ""
 
 
 def test_the_loop_asks_interfaces_not_types():
@@ -65,6 +103,37 @@ def test_the_loop_asks_interfaces_not_types():
     assert "ParticleBelief" not in text and "GaussianBelief" not in text
     assert not any(f'"{name}"' in text for name in POLICIES)
 
+
+
+#: Test files that test a whole rather than one module, and what.
+CROSS_CUTTING = {
+    "layout": "the code's shape",
+    "evaluation": "what a campaign measures: metrics, the truth drawn from the prior, the baseline",
+    "controls": "every study's filters against their no-update controls",
+    "findings": "the paper's findings, by campaigns",
+    "reference": "short campaigns against stored summaries",
+    "filter_reference": "the particle filter and a trial against stored outputs",
+    "settings": "every setting through the reader, the writer, the generator and the reference page",
+    "fuzz": "mutated missions and worlds through the reader and a campaign",
+    "refusals": "bad input through every command",
+    "examples": "examples/ run as a user runs them",
+    "docs": "the documentation's result tables and the benchmarks' shared harness",
+}
+
+
+def test_every_test_file_names_what_it_tests():
+    """``tests/test_X.py`` tests module or package X of uavsim, named by its own name
+    (``test_plkf.py``) or by its path (``test_guidance_qp.py``), or is one of the
+    :data:`CROSS_CUTTING` tests."""
+    names = set()
+    for path in PACKAGE.rglob("*.py"):
+        parts = [p for p in path.relative_to(PACKAGE).with_suffix("").parts if p != "__init__"]
+        if parts:
+            names |= {parts[-1], "_".join(parts)}
+    tests = {p.stem.removeprefix("test_") for p in (ROOT / "tests").glob("test_*.py")}
+    assert sorted(tests - names - set(CROSS_CUTTING)) == []
+    assert sorted(set(CROSS_CUTTING) - tests) == [], "an allowed cross-cutting test that no longer exists"
+    assert sorted(set(CROSS_CUTTING) & names) == [], "a module's tests belong under its name, not the allow-list"
 
 @pytest.fixture(params=KINDS)
 def belief(request):
@@ -117,3 +186,55 @@ def test_the_uav_can_be_driven_from_outside():
     circle.reset(1)
     with pytest.raises(ValueError, match="takes no actions"):
         circle.step(action=0)
+
+
+# ---------------------------------------------------------------- what a reader of a clone can follow
+#: Text a reader who clones the repository cannot follow: paths outside it, the tracker's
+#: issue numbers, and the hashed file names the papers once had (cite ``[Key, Eq. (n)]``,
+#: docs/references.md).
+STALE = {
+    "a path outside the repository": re.compile(r"\.\./shared|\bshared/(?:papers|notes)/|\bnotes/paper\d"),
+    "a tracker issue": re.compile(r"\bissues? #?\d+\b|\bthe issue's\b", re.IGNORECASE),
+    "a tracker reference": re.compile(r"(?<![&\w/])#\d+\b"),
+    "a paper's file name": re.compile(r"\b0\d\d_[0-9a-f]{6,}"),
+}
+DOCUMENTS = ("README.md", "docs/")  # the project's prose, in a test of its own
+
+
+def tracked_texts() -> dict[str, str]:
+    """Every tracked text file (binary files and the stored test data left out)."""
+    try:
+        names = subprocess.run(["git", "ls-files", "-z"], cwd=ROOT, capture_output=True, check=True).stdout
+    except (OSError, subprocess.CalledProcessError):
+        pytest.skip("not a git checkout: no list of tracked files")
+    out = {}
+    for name in names.decode().split("\0"):
+        path = ROOT / name
+        if not name or name.startswith("tests/data/") or not path.is_file():
+            continue
+        data = path.read_bytes()
+        if b"\0" in data:
+            continue
+        try:
+            out[name] = data.decode()
+        except UnicodeDecodeError:
+            continue
+    return out
+
+
+def stale_lines(documents: bool) -> list[str]:
+    found = []
+    for name, text in tracked_texts().items():
+        if name.startswith(DOCUMENTS) != documents:
+            continue
+        for n, line in enumerate(text.splitlines(), 1):
+            found += [f"{name}:{n}: {what}: {line.strip()}" for what, rx in STALE.items() if rx.search(line)]
+    return found
+
+
+def test_code_tests_and_benchmarks_name_nothing_outside_the_clone():
+    assert stale_lines(documents=False) == []
+
+
+def test_documents_name_nothing_outside_the_clone():
+    assert stale_lines(documents=True) == []

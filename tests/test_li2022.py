@@ -21,7 +21,7 @@ import json
 import numpy as np
 import pytest
 
-from uavsim.estimators import li2022 as L
+from uavsim.studies import li2022 as L
 
 RUNS, SEED = 1000, 2021
 BASES = ("PL-MMSE", "PLKF", "BC-PLKF", "IVKF")

@@ -1,4 +1,4 @@
-"""The non-myopic ``lookahead`` policy (issue 18): its score, its pruning, its registry entry."""
+"""The non-myopic ``lookahead`` policy: its score, its pruning, its registry entry."""
 
 from dataclasses import replace
 
@@ -6,8 +6,8 @@ import numpy as np
 
 from uavsim.belief.particle import ParticleBelief
 from uavsim.belief.traces import gaussian_traces
+from uavsim.bounds.pcrlb import information_reduction_factor
 from uavsim.config import load_mission
-from uavsim.pcrlb import information_reduction_factor
 from uavsim.targets import HORIZONTAL
 from uavsim.uav import POLICIES, Lookahead, LookaheadConfig, admissible, make_policy
 

@@ -1,4 +1,4 @@
-"""The closed-loop PCRLB (uavsim/pcrlb.py): the IRF of 004's bearing scan and the recursion.
+"""The closed-loop PCRLB (uavsim/bounds/pcrlb.py): the IRF of 004's bearing scan and the recursion.
 
 The IRF is checked three independent ways: its exact limits, a Monte Carlo of the score
 through the simulator's own sensor (``sensing.observe``) and set likelihood
@@ -18,7 +18,7 @@ import pytest
 from scipy import integrate
 
 from uavsim.belief.particle import log_likelihood
-from uavsim.pcrlb import (
+from uavsim.bounds.pcrlb import (
     _q2_quadrature,
     bearing_gradients,
     expected_information,
@@ -209,7 +209,7 @@ def test_bad_input_is_refused(kwargs, match):
 
 def test_module_stays_below_the_loop():
     """campaign and sim will import the bound; it must not import them (nor config)."""
-    code = "import sys, uavsim.pcrlb; print(sorted(m for m in sys.modules if m.startswith('uavsim')))"
+    code = "import sys, uavsim.bounds.pcrlb; print(sorted(m for m in sys.modules if m.startswith('uavsim')))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert not {"uavsim.sim", "uavsim.campaign", "uavsim.config", "uavsim.belief"} & set(ast.literal_eval(out))
 
@@ -239,7 +239,7 @@ def test_campaign_summaries_carry_the_bound_of_their_trials(tmp_path):
     sensor path (trial files hold them), and the same trials seen by a UAV have a lower
     bound at every step than with no sensor: the planned truth does not depend on the
     sensor (common random numbers), so the UAV only adds information.  A stochastic truth
-    gets no bound (see uavsim/pcrlb.py, "Which truth it bounds")."""
+    gets no bound (see uavsim/bounds/pcrlb.py, "Which truth it bounds")."""
     from dataclasses import replace
 
     from uavsim.campaign import load_trials, run_campaign

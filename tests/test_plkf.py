@@ -8,10 +8,10 @@ measured bearing 0.1 rad, sigma 0.05 rad: the predicted range is 20 m, so the PL
 import numpy as np
 import pytest
 
+from uavsim.bounds.crlb import bearing_gradients, constrained, crlb
 from uavsim.estimators import plkf
-from uavsim.estimators.crlb import bearing_gradients, constrained, crlb
-from uavsim.estimators.reproduce import reproduce, run_control, run_filter
-from uavsim.estimators.scenarios import draw_runs, scenario
+from uavsim.studies.huang2021 import reproduce, run_control, run_filter
+from uavsim.studies.huang2021_scenarios import draw_runs, scenario
 
 X, P, S, B, SIG = np.array([[10.0, 0, 1, 0]]), np.eye(4)[None], np.array([-10.0, 0]), 0.1, 0.05
 sb, cb = np.sin(B), np.cos(B)
@@ -197,7 +197,7 @@ def test_run_r_does_not_depend_on_the_number_of_runs():
 #   IV +8883 (t = 1.0: a few runs diverge; its median run improves, 444 -> 412 m),
 #   UB -139, VC +2.
 #
-# So with our reading of the scenario (scenarios.py: the one with the fewest lost minus
+# So with our reading of the scenario (studies/huang2021_scenarios.py: the one with the fewest lost minus
 # signs) the paper's ordering in scenario 2 (UB, VC better than BC, IV; VC closest to the
 # CRLB) is NOT reproduced: IV is best and UB worst.  The UB/VC pseudo-measurement is only
 # right when the bearing prediction is (test_translation), so their accuracy depends on
@@ -298,7 +298,7 @@ def test_ub_plkf_is_a_bearing_ekf_with_a_scaled_jacobian():
     np.testing.assert_allclose(p_ub, (p_ekf + p_ekf.transpose(0, 2, 1)) / 2, rtol=1e-9, atol=1e-7)
 
 
-# huang2021-scenario2-alt (scenarios.py): the reading of scenario 2 with 5 lost minus signs.
+# huang2021-scenario2-alt (studies/huang2021_scenarios.py): the reading of scenario 2 with 5 lost minus signs.
 # 300 runs, seed 2021, time-averaged position RMSE (m): PLKF 3527, BC 1000, IV 730, UB 673,
 # VC 635; CRLB 665, constrained CRLB 420.  Paired t over the runs: UB < BC 7.3, UB < IV 3.0,
 # VC < BC 8.2, VC < IV 5.6, VC < UB 6.7 (seed 7: 9.1, 2.8, 9.9, 5.2, 7.5).  So under this

@@ -5,8 +5,6 @@ Hand steps use 002's test geometry (``tests/test_plkf.py``): prediction ``x- = [
 with sigma 0.05 rad.  The predicted bearing is 0 and the predicted range 20 m.
 """
 
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -161,12 +159,3 @@ def test_unknown_filter_is_refused():
     with pytest.raises(ValueError, match="choose from pl-mmse"):
         PseudoLinearGM("ekf", np.eye(4), np.eye(4), ONE, X, P)
 
-
-def test_estimator_library_imports_numpy_and_scipy_only():
-    """The library never imports the simulator or its plotting/solver stack (STYLE.md)."""
-    code = ("import sys, uavsim.estimators.li2022, uavsim.estimators.reproduce, uavsim.estimators.constraints; "
-            "print(' '.join(sorted(m for m in sys.modules if m.split('.')[0] in "
-            "('matplotlib', 'cvxpy', 'rerun', 'highspy') or (m.startswith('uavsim.') and "
-            "not m.startswith('uavsim.estimators')))))")
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
-    assert out.strip() == ""

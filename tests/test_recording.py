@@ -1,4 +1,4 @@
-"""Rerun recordings (issue: the whole 3D scene, headless, opening in the real viewer)."""
+"""Rerun recordings: the whole 3D scene, written headless, opening in the real viewer."""
 
 import io
 from collections import Counter

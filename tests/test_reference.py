@@ -1,5 +1,5 @@
 """The simulator's numbers do not change by accident: short campaigns of the paper
-missions (every planner kind, both truth modes, a pseudo-linear filter) against the
+missions (every policy kind, both truth modes, a pseudo-linear filter) against the
 summaries stored in tests/data/reference_summaries.json (written by
 tests/data/make_reference_summaries.py when a change of numbers is intended, and said so
 in the commit).  Floats to 1e-9 relative: the same arithmetic in another order may move

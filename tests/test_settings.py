@@ -115,7 +115,7 @@ def town(tmp_path):
 def test_a_minimal_mission_in_a_world_of_another_size_runs_every_planner(town):
     """World + one target, nothing else: the geometry-dependent defaults follow the area
     (altitude half its 40 m height, the UAV start and fixed sensors at fractions of it,
-    manoeuvres sized to it) and every planner but the fixed sensors runs a step; the fixed
+    manoeuvres sized to it) and every policy but the fixed sensors runs a step; the fixed
     sensors' default (0.5, 0.9) of the area falls in the hall and is refused by name."""
     m = load_mission(town, {"steps": 2, "trials": 1, "filter.particles": 200})
     assert m.uav.altitude == 20.0

@@ -19,10 +19,10 @@
   (x, y) and of the full state with their 95% chi-square bands; the posterior Cramer-Rao
   bound of the position along the flown paths (:func:`accuracy_floor`: the expectation
   over the campaign's trials), comparable with the RMSE.
-* **The no-information baseline.** The ``baseline`` planner runs the same trials with no
+* **The no-information baseline.** The ``baseline`` policy runs the same trials with no
   sensor (its filter only predicts).  It does not depend on the sensor, the UAV or the
-  planner settings, so its campaign fingerprint leaves them out: one baseline serves every
-  planner and clutter rate of a mission.  :func:`with_baseline` adds it to a summary.
+  ``[planner]`` settings, so its campaign fingerprint leaves them out: one baseline serves
+  every policy and clutter rate of a mission.  :func:`with_baseline` adds it to a summary.
 """
 
 from __future__ import annotations
@@ -44,10 +44,10 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from . import metrics
+from .bounds.pcrlb import Bound, pcrlb_planned
 from .files import write_atomic
 from .guidance import Guidance
 from .mission import Mission, mission_errors
-from .pcrlb import Bound, pcrlb_planned
 from .sim import STAGES, Simulation
 from .uav import BASELINE, MANOEUVRES, make_policy
 
@@ -243,8 +243,8 @@ def _start_worker(parent: int, steps) -> None:
 def fingerprint(mission: Mission, planner: str = "") -> str:
     """SHA-256 of everything that determines a trial's result (not the trial count,
     which does not change trial k, nor where the file lives).  The baseline's trials do
-    not depend on the sensor, the UAV or the planner settings, which it leaves out; a
-    planner's do not depend on the other planners' settings (nor on which planner the
+    not depend on the sensor, the UAV or the ``[planner]`` settings, which it leaves out; a
+    policy's do not depend on the other policies' settings (nor on which planner the
     mission file names), which it leaves out too."""
     mission = replace(mission, trials=0, path=Path("."), world_path=Path("."))
     if planner == BASELINE:
@@ -386,7 +386,7 @@ def run_campaign(mission: Mission, planner: str, out: Path | None = None, worker
     """
     t0 = time.perf_counter()
     with mission_errors(mission.path):
-        make_policy(planner, mission)  # a setting this planner cannot use is refused before any trial
+        make_policy(planner, mission)  # a setting this policy cannot use is refused before any trial
     seeds = trial_seeds(mission.seed, mission.trials)
     folder = _prepare_folder(Path(out), mission, planner, resume) if out is not None else None
     # With a folder the trials live on disk (checked readable here, read back for the
@@ -460,7 +460,7 @@ def _recorded_trial(mission, planner, seeds, record) -> TrialResult:
 
 def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: float) -> dict:
     """The campaign summary (JSON-ready): RMSE per step and target, per-trial mean squared
-    errors, NEES consistency, the PCRLB of the flown paths (:mod:`.pcrlb`), timing,
+    errors, NEES consistency, the PCRLB of the flown paths (:mod:`.bounds.pcrlb`), timing,
     statuses."""
     results = sorted(results, key=lambda r: r.index)
     err2 = np.stack([r.err2 for r in results])  # (trials, steps, M)
@@ -498,8 +498,8 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
 
 
 def accuracy_floor(mission: Mission, sensor, results: list[TrialResult]) -> Bound | None:
-    """The PCRLB of the campaign's trials (:func:`.pcrlb.pcrlb_planned`), or None for a
-    stochastic truth, whose bound is not built (see :mod:`.pcrlb`)."""
+    """The PCRLB of the campaign's trials (:func:`.bounds.pcrlb.pcrlb_planned`), or None for a
+    stochastic truth, whose bound is not built (see :mod:`.bounds.pcrlb`)."""
     if mission.truth != "planned":
         return None
     return pcrlb_planned(np.stack([r.sensitivity for r in results]), np.stack([r.truth for r in results]),
@@ -508,11 +508,11 @@ def accuracy_floor(mission: Mission, sensor, results: list[TrialResult]) -> Boun
 
 def with_baseline(summary: dict, base: dict) -> dict:
     """``summary`` with the no-information baseline of the same trials beside it:
-    its RMSE curve, the ratios planner / baseline of the time-averaged RMSE over all
+    its RMSE curve, the ratios policy / baseline of the time-averaged RMSE over all
     steps and over the second half, and the paired t of the per-trial mean squared
-    errors (positive: the planner is better)."""
+    errors (positive: the policy is better)."""
     if base["trial_mse"] and len(base["trial_mse"]) != len(summary["trial_mse"]):
-        raise ValueError("the baseline must run the same trials as the planner")
+        raise ValueError("the baseline must run the same trials as the policy it is compared with")
     half = len(summary["rmse"]) // 2
     ratio_half = float(np.mean(summary["rmse"][half:]) / np.mean(base["rmse"][half:]))
     block = {"rmse": base["rmse"], "rmse_per_target": base["rmse_per_target"], "time_avg_rmse": base["time_avg_rmse"],

@@ -375,9 +375,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_tma_reproduce(args: argparse.Namespace) -> int:
-    from .estimators.li2022 import SCENARIOS as LI2022
-    from .estimators.reproduce import reproduce, table
     from .plots import tma_rmse_plot
+    from .studies.huang2021 import reproduce, table
+    from .studies.li2022 import SCENARIOS as LI2022
 
     if args.runs is not None and not 2 <= args.runs <= MAX_RUNS:
         raise UsageError(f"--runs must be in [2, {MAX_RUNS}], got {args.runs}")
@@ -456,8 +456,8 @@ def _sigma_scales(text: str) -> list[float]:
 
 
 def _tma_reproduce_li2022(args: argparse.Namespace) -> int:
-    from .estimators.li2022 import reproduce, sweep_table, table
     from .plots import li2022_curves_plot, li2022_sweep_plot
+    from .studies.li2022 import reproduce, sweep_table, table
 
     runs = 1000 if args.runs is None else args.runs
     _seed(args.seed)
@@ -495,8 +495,8 @@ def _list(text: str, flag: str, kind, ok, what: str) -> tuple:
 
 
 def _reproduce_oh2021(args: argparse.Namespace) -> int:
-    from .estimators import oh2021
     from .plots import oh2021_plots
+    from .studies import oh2021
 
     targets = _list(args.targets, "--targets", int, lambda t: t in oh2021.TARGETS, "targets from 1, 2, 3") \
         if args.targets else (1, 2, 3)
@@ -530,8 +530,8 @@ OLIVA2021_FLAGS = ("solver", "vary", "generations")
 
 
 def _reproduce_oliva2021(args: argparse.Namespace) -> int:
-    from .estimators import oliva2021
     from .plots import oliva2021_plot
+    from .studies import oliva2021
 
     runs = args.runs or 100
     _seed(args.seed)
@@ -609,8 +609,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="output folder")
     p.set_defaults(func=cmd_sweep)
 
-    from .estimators.li2022 import SCENARIOS as LI2022
-    from .estimators.scenarios import SCENARIOS
+    from .studies.huang2021_scenarios import SCENARIOS
+    from .studies.li2022 import SCENARIOS as LI2022
 
     tma = sub.add_parser("tma", help="the estimator library (papers 000-003)").add_subparsers(dest="tma", required=True)
     p = tma.add_parser("reproduce", help="a paper's simulation study; writes DIR/result.json and figures")

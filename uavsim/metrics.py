@@ -3,7 +3,7 @@
 * **RMSE** ([Papaioannou2023] Sec. VI-B): at step t,
   ``eps_t = sqrt(mean_n |x^pos_hat_t(n) - x^pos_t(n)|^2)`` over the N trials, (x, y)
   positions, per target; studies average it over the targets.
-* **No-information ratio**: a planner's time-averaged RMSE over that of the same filter
+* **No-information ratio**: a UAV policy's time-averaged RMSE over that of the same filter
   without any measurement on the same trials (common random numbers).  Below 1 the
   bearings help; a number that would be the same with the sensor off is not a tracking
   result.  The paired t-statistic is over the per-trial mean squared errors.

@@ -26,7 +26,7 @@ def _title(summaries: dict[str, dict]) -> str:
 
 
 def rmse_plot(summaries: dict[str, dict], path: Path) -> None:
-    """Average position RMSE per time step for each planner (004 Fig. 2c / 3e), its PCRLB
+    """Average position RMSE per time step for each policy (004 Fig. 2c / 3e), its PCRLB
     (the floor of any estimator along the same paths) dotted in the same colour, and the
     no-information baseline of the same trials as a dashed black line (once per distinct
     baseline)."""
@@ -51,7 +51,7 @@ def rmse_plot(summaries: dict[str, dict], path: Path) -> None:
 
 
 def nees_plot(summaries: dict[str, dict], path: Path) -> None:
-    """Average position NEES per time step (over trials and targets) for each planner,
+    """Average position NEES per time step (over trials and targets) for each policy,
     with its two-sided 95% chi-square band shaded: inside the band the filter's covariance
     agrees with its errors; below it the filter is too cautious, above it overconfident."""
     fig, ax = plt.subplots(figsize=(7, 4), dpi=120)

@@ -13,7 +13,7 @@ Entities (M targets named as in the mission)::
     metrics/{error, trace, nees}/<name>, metrics/error/RMSE    scalars
     metrics/error/PCRLB                                  planned truth: the PCRLB of the RMSE along this
                                                          trial's truth and path (conditional on them;
-                                                         :func:`.pcrlb.pcrlb_planned` for one trial)
+                                                         :func:`.bounds.pcrlb.pcrlb_planned` for one trial)
     metrics/nees/{mean, band_lo, band_hi}                position NEES averaged over the targets and
                                                          its 95% chi-square band (this trial)
     log                                                  text: fallbacks, degenerate updates, resampling
@@ -33,8 +33,8 @@ import rerun.blueprint as rrb
 from scipy.spatial.transform import Rotation
 
 from . import metrics
+from .bounds.pcrlb import HORIZONTAL_POS, pcrlb_planned
 from .mission import Mission
-from .pcrlb import HORIZONTAL_POS, pcrlb_planned
 from .sim import StepInfo
 from .uav import make_policy
 

@@ -22,7 +22,7 @@ Each step t -> t+1:
 Randomness: a trial gets one ``SeedSequence``; it spawns separate streams for the truth's
 process noise, the sensor, the filter, the UAV start and the truth's initial state, so
 trial k sees the same truth and the same prior particles whichever policy runs (common
-random numbers across planners and the baseline).
+random numbers across policies and the baseline).
 """
 
 from __future__ import annotations
@@ -39,7 +39,7 @@ from .sensing import Scan, observe
 from .truth import Truth
 from .uav import make_policy
 
-STAGES = ("guidance", "filter", "planner", "truth", "total")
+STAGES = ("guidance", "filter", "planner", "truth", "total")  # seconds per step; "planner": the policy's act
 MIN_HALF = 0.01  # a half of the particle cloud with less weight than this moves by the mean's plan
 
 
@@ -54,7 +54,7 @@ class StepInfo:
     observers: np.ndarray  # (S, 3) sensor positions this step (the UAV, the fixed sensors, or none)
     scans: list[Scan]
     plans: list[Plan]
-    candidates: np.ndarray | None  # (C, 3) the UAV's grid moves (optimized planner)
+    candidates: np.ndarray | None  # (C, 3) the UAV's grid moves (the optimized policy)
     scores: np.ndarray | None  # (C,) summed pseudo-posterior traces (inf: not admissible)
     seconds: dict[str, float]
     events: list[str] = field(default_factory=list)
@@ -68,7 +68,7 @@ class Simulation:
 
     Parameters
     ----------
-    mission : validated mission; planner : a name in :data:`uavsim.uav.POLICIES`;
+    mission : validated mission; planner : the policy's name, one of :data:`uavsim.uav.PLANNERS`;
     guidance : a shared :class:`Guidance` (it is stateless; building one costs ~30 ms);
     oracle : the filter predicts with the true targets' own forces instead of re-planning
         from its estimate (a diagnostic: it separates tracking errors due to guidance from

@@ -13,7 +13,7 @@ guidance plan), then moves it by the mission's truth mode:
 
 A planned truth is a deterministic function of its drawn start, ``x_t = g_t(x_0)``.  Its
 sensitivity ``G_t = d x_t / d x_0`` on ``[x, y, vx, vy]`` (:attr:`Truth.sensitivity`) is
-what the accuracy floor of :mod:`.pcrlb` needs: P1's optimum is piecewise affine in the
+what the accuracy floor of :mod:`.bounds.pcrlb` needs: P1's optimum is piecewise affine in the
 start (a QP for each face choice and active set), so central differences are exact unless
 the active set changes within them (:meth:`.guidance.Guidance.sensitivity` checks; on the
 paper mission forward and backward differences agree to 1e-8).

@@ -2,10 +2,11 @@
 
     python tests/data/make_filter_reference.py
 
-The file was written ONCE with the implementation of commit 8c473d3 (before the issue 17
-speed-ups of ``uavsim/filtering.py``), so ``tests/test_filter_reference.py`` checks that
-later implementations compute the same numbers.  Do not regenerate it to make a test pass;
-regenerate only when the numbers are meant to change, and say so in the commit.
+The file was written ONCE with the implementation of commit 8c473d3 (``uavsim/filtering.py``,
+before the particle filter's speed-ups from commit f09163a on), so
+``tests/test_filter_reference.py`` checks that later implementations compute the same
+numbers.  Do not regenerate it to make a test pass; regenerate only when the numbers are
+meant to change, and say so in the commit.
 
 What is stored:
 

@@ -1,11 +1,13 @@
-"""UAV monitoring control: the covariance-trace decision rule.
+"""The pseudo-posterior covariance traces a belief answers the UAV with (Eq. 12).
 
-[Papaioannou2023] Sec. V-B, Eq. (12)-(13).  For every admissible next position s
-and every target j, the ideal (noise-free, no clutter) bearing from the predicted mean,
+[Papaioannou2023] Sec. V-B, Eq. (12).  For every candidate UAV position s and every
+target j, the ideal (noise-free, no clutter) bearing from the predicted mean,
 ``z_j(s) = l(mu_j, s)`` (Eq. 12), re-weights target j's predicted particles by
 ``N(z_j(s); l(x_i, s), sigma^2)``; the pseudo-posterior covariance trace follows from
-weighted moments (Eq. 11).  The UAV goes to ``argmin_s sum_j tr(Sigma~_j(s))`` (Eq. 13);
-ties go to the lowest candidate index (row 0 is "stay").
+weighted moments (Eq. 11).  :meth:`uavsim.belief.Belief.traces` answers with
+:func:`pseudo_traces` (particles) or :func:`gaussian_traces` (pseudo-linear filters); the
+UAV's rule that goes to the least summed trace, Eq. (13), is
+:func:`uavsim.uav.grid.decide`.
 
 Vectorised over candidates x targets x particles.  The residual bearing is computed
 exactly as ``atan2(d_mu x d_i, d_mu . d_i)`` (the signed angle between the directions to
@@ -18,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..pcrlb import bearing_gradients
+from ..bounds.pcrlb import bearing_gradients
 
 BLOCK_ELEMENTS = 1 << 16  # candidate x target x particle entries per block: 256 kB float32 arrays stay in L2
 
@@ -97,7 +99,7 @@ def gaussian_traces(candidates: np.ndarray, means: np.ndarray, covs: np.ndarray,
     """Eq. (12)-(13) for Gaussian beliefs (the pseudo-linear filters): the trace after a
     noise-free bearing linearised at the mean, ``tr(P) - |P h|^2 / (h P h^T + sigma^2)``,
     ``h = (dy, -dx, 0, ...) / r^2`` the gradient of ``atan2(dx, dy)``
-    (:func:`uavsim.pcrlb.bearing_gradients`, ``r`` floored at ``min_range``).
+    (:func:`uavsim.bounds.pcrlb.bearing_gradients`, ``r`` floored at ``min_range``).
 
     candidates (..., C, >=2); means (M, >=2); covs (..., M, n, n), x and y first (leading
     dimensions broadcast).  Returns (..., C, M)."""
@@ -105,13 +107,3 @@ def gaussian_traces(candidates: np.ndarray, means: np.ndarray, covs: np.ndarray,
     ph = np.einsum("...mij,...cmj->...cmi", covs[..., :2], h2)  # (..., C, M, n)
     s = np.einsum("...cmi,...cmi->...cm", h2, ph[..., :2]) + sigma**2
     return np.trace(covs, axis1=-2, axis2=-1)[..., None, :] - np.sum(ph**2, -1) / s
-
-
-def decide(candidates: np.ndarray, admissible: np.ndarray, traces) -> tuple[int, np.ndarray]:
-    """Eq. (13): index of the admissible candidate with the least summed trace, and the
-    summed traces ``(C,)`` (``inf`` for inadmissible candidates).  ``traces(candidates)``
-    gives ``(C, M)``: :func:`pseudo_traces` or :func:`gaussian_traces` bound to the beliefs."""
-    total = np.full(len(candidates), np.inf)
-    if admissible.any():
-        total[admissible] = traces(candidates[admissible]).sum(axis=1)
-    return int(np.argmin(total)), total

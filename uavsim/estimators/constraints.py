@@ -13,7 +13,7 @@ The callables :class:`LinearProjection`, :class:`NonlinearProjection`,
 :class:`TangentVelocity` and :class:`Chain` wrap them as ``(x, P) -> (x~, ok)`` for
 :class:`.plmmse.PseudoLinearGM`.
 
-Re-derived where the print is garbled or less general than the issue needs:
+Re-derived where the print is garbled or less general than the scenarios need:
 
 * Eq. (41)-(42): the print writes ``g`` for ``q``; (42) is the ``W = I`` projection onto
   the tangent plane, ``x~ = x^ - h'^T (h' h'^T)^-1 (h(x^) - q)``; we also allow ``W = P^-1``.

@@ -15,7 +15,7 @@ below them works in that convention.
   ``F = sum dh^T dh / sigma^2``, as in its ref. 7 (Nardone 1984).  That reproduces the
   published divergence (about 40% for target 2 at 1.9 deg, none at small noise); the
   full Hessian ``F - sum (z - h) d2h / sigma^2`` (``hessian=True``) diverges in most runs
-  at every noise level from the same start (``tests/test_batch_tma.py``).  Started from
+  at every noise level from the same start (``tests/test_batch.py``).  Started from
   the best of 10 000 candidates drawn from the search area of Table 2
   (:class:`SearchArea`); the paper gives no iteration limit or stopping rule (we: at most
   50 steps, stop when a step predicts a decrease of ``lam`` below 1e-9).

@@ -36,7 +36,8 @@ The extracted text lost minus signs; re-derived here (and tested against hand st
   ``alpha = 1`` only when the origin projects onto the line of sight at the target
   (``u^ . x^ = 0``); elsewhere ``|alpha|`` over- or under-weights the bearings, by where
   the origin happens to be.  This is why 002's ranking depends on the scenario's
-  coordinates (``scenarios.py``: ``huang2021-scenario2`` against ``-scenario2-alt``).
+  coordinates (:mod:`uavsim.studies.huang2021_scenarios`: ``huang2021-scenario2`` against
+  ``-scenario2-alt``).
 * Eq. (68) / Appendix A (VC): ``K*_v = K_v + (v / |v_k|k| - 1) v_k|k / eps``, i.e. the
   constrained velocity is the UB velocity scaled to norm ``v``.  Step 7's covariance
   ``(I - K H) P`` holds only for the optimal gain; for ``K*`` we use the Joseph form of

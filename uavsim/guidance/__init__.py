@@ -189,7 +189,7 @@ class Guidance:
         P1's optimum is piecewise affine in the start (a QP for each face choice and active
         set), so the difference is exact unless the active set changes within the step;
         ``smooth`` is False when the forward and backward differences disagree (then G is
-        their mean).  Used for the accuracy floor of a planned truth (:mod:`uavsim.pcrlb`).
+        their mean).  Used for the accuracy floor of a planned truth (:mod:`uavsim.bounds.pcrlb`).
 
         Raises
         ------

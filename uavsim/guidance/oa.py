@@ -171,7 +171,7 @@ class OuterApproximation:
     """P1 compiled once; :meth:`solve` for each new start state and goal.
 
     ``reference_plans`` (off): the plan returned is re-solved by Clarabel, the QP solver
-    before issue 17 (one more QP per plan, about 5 ms at T = 50, not counted in the
+    before DAQP (commit d6ed022; one more QP per plan, about 5 ms at T = 50, not counted in the
     budget), for numbers close to those of before; the search and the bounds stay DAQP's
     (the reported gap then includes Clarabel's error).
     Off, a plan is DAQP's verified optimum, which differs from Clarabel's by Clarabel's

@@ -26,12 +26,12 @@ relaxation says no plan exists) Clarabel confirms it (``bound=True``); the heuri
 infeasible verdicts only decide which incumbents are found (12 confirmations against
 219 unconfirmed verdicts in 50 rolling re-plans of the paper mission's 4 targets).
 
-**Fallback: Clarabel** (interior point, :class:`ClarabelQP`, the method before issue 17)
+**Fallback: Clarabel** (interior point, :class:`ClarabelQP`, the method before DAQP, commit d6ed022)
 for anything the fast path cannot settle: a program that does not condense, an iteration
 limit, cycling, or an answer that fails the checks; HiGHS's QP behind it.  A failure of
 one solver is not a failure of the plan.
 
-Measured (``benchmarks/qp_solvers.py``, issue 17) on the 5761 QPs that 50 rolling re-plans
+Measured (``benchmarks/qp_solvers.py``) on the 5761 QPs that 50 rolling re-plans
 of the paper mission's 4 targets and of generated worlds 4, 12, 31 solve: every verdict
 (982 infeasible) equal to Clarabel's, objectives within 5e-9 of Clarabel's (its own
 tolerance) and within 3e-11 of Clarabel at 1e-11 tolerances, no fallback; median 0.4-0.9
@@ -148,7 +148,7 @@ class FixedFaceQP:
         return None if sol is None else replace(sol, solved=(y, relax))
 
     def reference(self, lo: np.ndarray, hi: np.ndarray, sol: QpSolution) -> QpSolution:
-        """``sol`` as Clarabel solves the same QP (the plans of before issue 17, to its
+        """``sol`` as Clarabel solves the same QP (the plans of before DAQP, commit d6ed022, to its
         tolerance ~1e-8), keeping ``sol``'s face choice; ``sol`` itself where it already
         is Clarabel's or Clarabel finds no plan."""
         if sol.by == "clarabel" or sol.solved is None:
@@ -429,7 +429,7 @@ class Condensed:
 
 class ClarabelQP:
     """The fixed-face QP in its sparse form by Clarabel (interior point), HiGHS's QP
-    behind it: the method before issue 17, now the fallback and the reference.
+    behind it: the method before DAQP (commit d6ed022), now the fallback and the reference.
 
     On the paper mission HiGHS's active-set QP needed about 1000 iterations and 66-100 ms
     per solve, and stops with "solve error" on some instances; Clarabel takes 4-5 ms.

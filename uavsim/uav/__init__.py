@@ -13,6 +13,16 @@ maps the names a mission or the command line uses to their makers:
 * ``zigzag``, ``square``, ``pentagon``, ``circle``: pre-computed loops (Fig. 3);
 * ``fixed-sensors``: three static sensors without false alarms (Fig. 2c);
 * ``baseline``: no sensor (the no-information baseline).
+
+**Policy and planner.**  In the code a UAV behaviour is a *policy* (:class:`Policy`,
+:data:`POLICIES`, :func:`make_policy`, ``Simulation.policy``; to *plan* is the guidance's
+word, for the targets' paths, :mod:`uavsim.guidance`).  Users pick a policy by its name,
+and there the word is *planner*, kept so that existing missions and scripts work: the
+mission's ``[planner]`` section (``Mission.planner``, :class:`PlannerConfig`, as every
+section has its config class), ``uavsim run --planner`` and ``compare --planners``,
+:data:`PLANNERS` (the names), the ``planner`` entries of a campaign's manifest and summary
+(the name, and the seconds per step the policy took).  A function that takes such a name
+calls its argument ``planner`` (``Simulation``, ``run_campaign``, ``run_trial``).
 """
 
 from __future__ import annotations
@@ -27,18 +37,18 @@ from ..declare import setting
 from ..mission import Mission
 from ..sensing import Sensor
 from .fixed import FixedSensors, FixedSensorsConfig, NoSensor
-from .grid import GridOptimizer, UavConfig, admissible, candidates, move_offsets, uav_start
+from .grid import GridOptimizer, UavConfig, admissible, candidates, decide, move_offsets, uav_start
 from .lookahead import Lookahead, LookaheadConfig
 from .manoeuvres import MANOEUVRES, Manoeuvre, ManoeuvreConfig, Route, manoeuvre_loop, manoeuvre_route, place_loop
 
 POLICIES = {"optimized": GridOptimizer, "lookahead": Lookahead, **{n: partial(Manoeuvre, n) for n in MANOEUVRES},
             "fixed-sensors": FixedSensors, "baseline": NoSensor}
-PLANNERS = tuple(POLICIES)
+PLANNERS = tuple(POLICIES)  # the names users give: `--planner`, [planner] name
 BASELINE = "baseline"  # the policy every study is measured against
 
 __all__ = ["POLICIES", "PLANNERS", "BASELINE", "MANOEUVRES", "Policy", "PlannerConfig", "UavConfig", "ManoeuvreConfig",
            "FixedSensorsConfig", "LookaheadConfig", "GridOptimizer", "Lookahead", "Manoeuvre", "FixedSensors",
-           "NoSensor", "Route", "make_policy",
+           "NoSensor", "Route", "make_policy", "decide",
            "admissible", "candidates", "move_offsets", "uav_start", "manoeuvre_loop", "manoeuvre_route", "place_loop"]
 
 

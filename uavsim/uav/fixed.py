@@ -42,7 +42,7 @@ def fixed_sensor(mission: Mission) -> Sensor:
 def fixed_sensor_problem(positions: np.ndarray, world: World) -> str | None:
     """None if every fixed sensor ``(S, 3)`` (on the ground) lies in the area and outside
     obstacles, else which one and why.  The derived defaults are checked only when the
-    fixed-sensors planner runs (:class:`uavsim.uav.FixedSensors`)."""
+    fixed-sensors policy runs (:class:`uavsim.uav.FixedSensors`)."""
     xy = positions[:, :2]
     inside_area = np.all((xy >= world.area_lo[:2]) & (xy <= world.area_hi[:2]), axis=1)
     in_obstacle = world.in_obstacle(positions)

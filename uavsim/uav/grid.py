@@ -11,7 +11,8 @@ A candidate is admissible when it lies in the area and the operating region, out
 every obstacle, and the straight segment to it crosses no obstacle (Sec. V-B, last
 paragraph; a crossing move is as bad as one that ends inside).  The ``optimized`` policy
 (Sec. V-B) goes to the admissible candidate of least summed pseudo-posterior covariance
-trace, Eq. (12)-(13), asked of the belief.
+trace, Eq. (13) (:func:`decide`), the traces asked of the belief (Eq. 12,
+:meth:`uavsim.belief.Belief.traces`).
 """
 
 from __future__ import annotations
@@ -20,7 +21,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..belief.traces import decide
 from ..declare import SettingError, setting
 from ..mission import Mission
 from ..world import Region2D, World
@@ -94,6 +94,18 @@ def uav_start(rng: np.random.Generator, uav: UavConfig, world: World, tries: int
             return p[np.argmax(ok)]
     raise SettingError("uav.random_start",
                        f"no free start found in {tries} draws: the operating region is (nearly) all obstacle")
+
+
+def decide(candidates: np.ndarray, admissible: np.ndarray, traces) -> tuple[int, np.ndarray]:
+    """Eq. (13): index of the admissible candidate with the least summed trace (ties go
+    to the lowest index; row 0 is "stay"), and the summed traces ``(C,)`` (``inf`` for
+    inadmissible candidates).  ``traces(candidates)``
+    gives ``(C, M)``: :func:`uavsim.belief.traces.pseudo_traces` or
+    :func:`~uavsim.belief.traces.gaussian_traces` bound to the beliefs."""
+    total = np.full(len(candidates), np.inf)
+    if admissible.any():
+        total[admissible] = traces(candidates[admissible]).sum(axis=1)
+    return int(np.argmin(total)), total
 
 
 class OneUav:

@@ -13,11 +13,11 @@ RMSE need not follow, see the README's lookahead table).
 **Score.**  Each target's predicted belief is summarised by its moments on
 ``[x, y, vx, vy]`` (:data:`uavsim.targets.HORIZONTAL`).  Along a path the covariance
 follows the information recursion of the closed-loop bound, in covariance form
-(:func:`uavsim.pcrlb.pcrlb_step`): ``P <- A P A^T + Q`` between scans, and a bearing scan
+(:func:`uavsim.bounds.pcrlb.pcrlb_step`): ``P <- A P A^T + Q`` between scans, and a bearing scan
 from the UAV's position ``s_k`` adds the information ``q2 h^T h / sigma^2`` on (x, y),
 ``h = (dy, -dx) / r^2``, with ``d`` the predicted mean minus ``s_k`` and ``q2`` the
 information reduction factor of missed detections and clutter
-(:func:`uavsim.pcrlb.information_reduction_factor`).  The first step's term is Eq. (13)
+(:func:`uavsim.bounds.pcrlb.information_reduction_factor`).  The first step's term is Eq. (13)
 itself, the belief's own pseudo-posterior traces (:meth:`uavsim.belief.Belief.traces`;
 particles for the particle filter), so with ``horizon = 1`` the policy is ``optimized``;
 the later terms come from the recursion, where one scan's trace is the rank-one update
@@ -44,9 +44,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..belief.traces import gaussian_traces
+from ..bounds.pcrlb import information_reduction_factor, pcrlb_step, scan_information
 from ..declare import setting
 from ..mission import Mission
-from ..pcrlb import information_reduction_factor, pcrlb_step, scan_information
 from ..targets import HORIZONTAL
 from .grid import GridOptimizer, admissible, move_offsets
 

@@ -1,6 +1,6 @@
 """``uavsim tma reproduce NAME``: the study of [Huang2021] Sec. 3.
 
-Runs every filter of :mod:`.plkf` on the same R runs (batched: one array op per scan for
+Runs every filter of :mod:`uavsim.estimators.plkf` on the same R runs (batched: one array op per scan for
 all runs), then writes ``result.json`` (per filter: RMSE curves, time-averaged RMSE,
 seconds per scan; the CRLB / constrained CRLB curves where the paper plots them);
 :func:`uavsim.plots.tma_rmse_plot` draws it like the paper's Figs. 3, 5 and 7.
@@ -12,9 +12,9 @@ import time
 
 import numpy as np
 
-from .crlb import constrained, crlb, rmse_bounds
-from .plkf import FILTERS, PseudoLinearKF
-from .scenarios import Scenario, draw_runs, rmse_curves, scenario, time_averaged
+from ..bounds.crlb import constrained, crlb, rmse_bounds
+from ..estimators.plkf import FILTERS, PseudoLinearKF
+from .huang2021_scenarios import Scenario, draw_runs, rmse_curves, scenario, time_averaged
 
 
 def run_filter(kind: str, sc: Scenario, x0: np.ndarray, bearings: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:

@@ -1,8 +1,8 @@
 """Batch maximum-likelihood TMA (estimators/batch.py) and 003's NR, PSO and NRPSO
-(estimators/nrpso.py, estimators/oh2021.py; Oh, Shi, Choi 2021).
+(estimators/nrpso.py, studies/oh2021.py; Oh, Shi, Choi 2021).
 
 Derivatives are checked against central finite differences; the study against the
-paper's statements (Sec. 4) and the reference figures of notes/paper003-000.md, with
+paper's statements (Sec. 4) and the figures of an independent reference implementation, with
 bands from the binomial or chi-square spread of the run counts used here.
 """
 
@@ -11,7 +11,8 @@ import json
 import numpy as np
 import pytest
 
-from uavsim.estimators import batch, nrpso, oh2021
+from uavsim.estimators import batch, nrpso
+from uavsim.studies import oh2021
 
 SEED = 2021
 
@@ -129,8 +130,8 @@ def test_cholesky_solve_and_its_failures():
     assert not ok[0, :2].any() and ok[0, 2:].all() and (x[0, :2] == 0).all() and (det[0, :2] == 0).all()
 
 
-def test_crlb_matches_the_notes_and_finite_differences():
-    """notes/paper003-000.md, 003 results table: CRLB position RMSE of target 2 at K = 600:
+def test_crlb_matches_the_reference_and_finite_differences():
+    """The independent reference implementation's results: CRLB position RMSE of target 2 at K = 600:
     273 m (0.1 deg), 1364 m (0.5 deg), 5183 m (1.9 deg); det F at the truth 1.7e3, 4.4e-3,
     1.0e-7 (SI).  The bound scales with sigma exactly."""
     t = oh2021.times(600)
@@ -290,8 +291,8 @@ def _nr(target, sigma_deg, runs, **kw):
 
 def test_nr_diverges_on_target_2_at_the_papers_rate():
     """003 Sec. 4: target 2, sigma = 1.9 deg, K = 600: NR divergence "up to about 40%"
-    (notes' reference: 41.3% of 1000 runs).  1000 runs: std 1.5%, band 40 +- 4.6%.
-    Measured (seed 2021): 41.2%, position RMSE of the rest 3709 m (notes: 3760 m)."""
+    (the reference implementation: 41.3% of 1000 runs).  1000 runs: std 1.5%, band 40 +- 4.6%.
+    Measured (seed 2021): 41.2%, position RMSE of the rest 3709 m (reference: 3760 m)."""
     m, _ = _nr(2, 1.9, 1000)
     assert abs(m["diverged_pct"] - 40.0) <= 3 * 100 * np.sqrt(0.4 * 0.6 / 1000), m
 
@@ -300,7 +301,7 @@ def test_nr_never_diverges_at_small_noise_and_reaches_the_crlb():
     """003 Sec. 4: "accurate estimates with small standard deviations without divergence".
     Target 1, 0.1 deg, 300 runs: none diverge, and the position RMSE is the CRLB (111 m)
     within 3 std of a 2-D Gaussian's RMSE over 300 runs (sqrt(1 / (2 N)) = 4%).
-    Measured: 0 of 300, 108 m (notes: 112 m over 1000 runs)."""
+    Measured: 0 of 300, 108 m (reference: 112 m over 1000 runs)."""
     m, res = _nr(1, 0.1, 300)
     assert m["diverged_pct"] == 0.0 and res.converged.all()
     bound = batch.crlb(batch.polynomial_basis(oh2021.times(600)), oh2021.observer(oh2021.times(600)),
@@ -309,7 +310,7 @@ def test_nr_never_diverges_at_small_noise_and_reaches_the_crlb():
 
 
 def test_full_hessian_newton_diverges_where_gauss_newton_does_not():
-    """Which matrix is 003's dM/dX: target 2 at 0.1 deg, the notes' reference measured
+    """Which matrix is 003's dM/dX: target 2 at 0.1 deg, the reference implementation measured
     divergence 1% with the Fisher (Gauss-Newton) matrix and 79% with the full Hessian from
     the same 10 000-candidate start.  The paper reports no divergence at small noise, so it
     used the former.  100 runs: GN at most 5%, the full Hessian at least 50%.
@@ -322,7 +323,7 @@ def test_full_hessian_newton_diverges_where_gauss_newton_does_not():
 def test_swarms_never_diverge_and_nrpso_beats_pso_at_small_noise():
     """003 Sec. 4: PSO and NRPSO never diverge (the 15 km search area keeps them inside
     20 km).  Target 3 at 0.1 deg, where the NR term is on for every particle, NRPSO's
-    RMSE is a fraction of PSO's (notes: 222 m vs 1518 m over 500 runs); 30 runs,
+    RMSE is a fraction of PSO's (reference: 222 m vs 1518 m over 500 runs); 30 runs,
     paired, must show NRPSO below half of PSO.  Measured: 1431 m and 199 m."""
     prob, gens = _small_problem(3, 0.1, 30, 600)
     x0 = np.array(oh2021.TARGETS[3])

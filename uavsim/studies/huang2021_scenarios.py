@@ -22,7 +22,7 @@ minus signs (the figures are not in the text):
 * ``huang2021-mismatch`` (Sec. 3.2, Fig. 7): scenario 2 with the true noise 3 deg for
   scans k < 51 and k > 201 and 7 deg otherwise, while the filters still assume 5 deg.
 * ``huang2021-scenario2-alt``: the other reading of scenario 2 (the one that reproduces
-  the paper's ordering; see the UB derivation in :mod:`.plkf`): target
+  the paper's ordering; see the UB derivation in :mod:`uavsim.estimators.plkf`): target
   ``[-1000, 1000, -10, -10]`` with the acceleration ``[0.05, 0.15]`` as printed, ending
   at ``(-5, 5)`` m/s; observer from ``(500, 500)`` at ``(0, -9.45)`` m/s in the same
   anticlockwise turn; prior mean = true start.  Its speed also stays in ``[6.3, 14.2]``
@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .plkf import cv_model
+from ..estimators.plkf import cv_model
 
 N_SCANS, FIRST_AVERAGED = 350, 60  # Eq. (83)-(84): N and P
 Q_PSD = 0.2

@@ -3,7 +3,7 @@
 Scenario: a target with ``psi = [3e4, 3e4, 8.333, 7.778, 0, 0]`` (m, m/s, m/s^2; Eq. 11-12)
 seen every ``T = 2 s`` for 3600 s with bearing noise std 0.5 deg (the text says
 "variance" and means the std: only the std reproduces the published CRLB).  Bearings from
-+x, anticlockwise (Eq. 3), as :mod:`.batch`: nothing to convert.  Bearings at
++x, anticlockwise (Eq. 3), as :mod:`uavsim.estimators.batch`: nothing to convert.  Bearings at
 ``k = 1..1800`` (Eq. 10), constraints at ``k = 0..1800`` (Eq. 13).  Intelligence (Table 1):
 inside ``X1`` (centre [1e4, 5e4], radius 5e4) and ``X2`` ([2e4, 6e4], 4.5e4), outside ``Y1``
 ([4e4, 8e4], 2.5e4).  The truth leaves ``X1`` for ``t >= 3534 s`` (34 samples, 639 m out at
@@ -14,7 +14,7 @@ Ownship (Eq. 18-19), from the origin: ``o(kT) = Rot(gamma) [vbar kT, A sin(omega
 argument ``omega x_o(kT)`` refers to the point being defined; reading it as the distance
 along the track reproduces the published CRLB, 7.771e5 against 7.713e5, where ``omega t``
 gives 5e15).  ``gamma = 0`` (no APF) or the published APF direction 0.749 rad
-(:func:`.intelligence.apf_force` does not give it from Table 1: README).
+(:func:`uavsim.estimators.intelligence.apf_force` does not give it from Table 1: README).
 
 The four scenarios (Sec. 3): no information (gamma 0, unconstrained MLE), unconstrained
 APF (0.749, unconstrained), constrained without APF (0, constrained) and the proposed
@@ -23,9 +23,9 @@ errors, absolute acceleration error (Eq. 22 is missing from the text; ``|a - a*|
 reproduces Table 2's column) of the mean estimate ("average") and of the run with the
 lowest objective ("best"); Table 3: spectral norms of the estimates' sample covariance, of
 the covariance of the runs whose error is at most the median, and of the CRLB
-(constrained at the truth for the constrained scenarios, :func:`.intelligence.constrained_crlb`).
+(constrained at the truth for the constrained scenarios, :func:`uavsim.estimators.intelligence.constrained_crlb`).
 
-Solvers: ``local`` (default) runs :func:`.intelligence.solve` from the pseudo-linear
+Solvers: ``local`` (default) runs :func:`uavsim.estimators.intelligence.solve` from the pseudo-linear
 estimate (Levenberg-Marquardt) and, when constrained, SLSQP from that unconstrained MLE;
 ``global`` runs scipy's differential evolution on the box
 :data:`BOUNDS` with a penalty for the constraints, then polishes its best point with the
@@ -43,8 +43,16 @@ import time
 import numpy as np
 from scipy.optimize import differential_evolution
 
-from .batch import BearingData, Evaluator, crlb, polynomial_basis, prepare
-from .intelligence import Disc, Intelligence, Settings, TrackConstraints, constrained_crlb, pseudo_linear, solve
+from ..estimators.batch import BearingData, Evaluator, crlb, polynomial_basis, prepare
+from ..estimators.intelligence import (
+    Disc,
+    Intelligence,
+    Settings,
+    TrackConstraints,
+    constrained_crlb,
+    pseudo_linear,
+    solve,
+)
 
 T, HORIZON, SIGMA_DEG = 2.0, 3600.0, 0.5
 TRUTH = np.array([3e4, 3e4, 8.333, 7.778, 0.0, 0.0])
@@ -126,7 +134,7 @@ def local_solve(data: BearingData, tc: TrackConstraints | None, settings: Settin
     """The local solver on R runs: ``theta (R, 6)``, ``nll (R,)``, ``violation (R,)`` (m),
     ``converged (R,)``.  Levenberg-Marquardt from ``starts (R, 6)`` (default the
     pseudo-linear estimate); with constraints, SLSQP from that unconstrained MLE
-    (:func:`.intelligence.solve`)."""
+    (:func:`uavsim.estimators.intelligence.solve`)."""
     settings = settings or Settings()
     res = solve(data, pseudo_linear(data) if starts is None else starts, settings=settings)
     if tc is not None:

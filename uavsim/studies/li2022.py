@@ -2,8 +2,8 @@
 
 Three scenarios (``li2022-line``: Table 5, Figs. 4-7; ``li2022-arc-slow``: Table 7,
 Figs. 8-11; ``li2022-arc-fast``: Table 9, Figs. 12-15), N = 200 scans of T = 0.1 s, each
-with 12 filter rows: PL-MMSE, PLKF, BC-PLKF, IVKF (:mod:`.plmmse`) and each of them
-constrained twice (:mod:`.constraints`): ``-C(W=I)`` and ``-C(W=P^-1)`` on the line
+with 12 filter rows: PL-MMSE, PLKF, BC-PLKF, IVKF (:mod:`uavsim.estimators.plmmse`) and each of them
+constrained twice (:mod:`uavsim.estimators.constraints`): ``-C(W=I)`` and ``-C(W=P^-1)`` on the line
 (Eq. 72-73), ``-L`` and ``-S`` on the arc (Eq. 76-80, then the tangent velocity, Eq. 81-83).
 
 Readings (where the paper is ambiguous, what we chose):
@@ -43,8 +43,8 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .constraints import Chain, LinearProjection, NonlinearProjection, TangentVelocity, circle
-from .plmmse import FILTERS, GaussianMixture, PseudoLinearGM, cv_model
+from ..estimators.constraints import Chain, LinearProjection, NonlinearProjection, TangentVelocity, circle
+from ..estimators.plmmse import FILTERS, GaussianMixture, PseudoLinearGM, cv_model
 
 N_SCANS, DT, L0, RHO = 200, 0.1, 50, 7.0
 LAMBDA = 0.4
@@ -234,7 +234,7 @@ def true_bearings(sc: Li2022Scenario) -> np.ndarray:
 def run_filter(kind: str, sc: Li2022Scenario, x0: np.ndarray, bearings: np.ndarray, rho: float,
                constraint=None, feedback: bool = False, options: dict | None = None):
     """One filter over all runs from ``x^_{1|1}`` through scans 2..N (the wrapper
-    :class:`.plmmse.PseudoLinearGM`).  Returns the output estimates ``(R, N, 4)`` (the
+    :class:`uavsim.estimators.plmmse.PseudoLinearGM`).  Returns the output estimates ``(R, N, 4)`` (the
     constrained ones when there is a ``constraint``), the filter's own estimates and
     covariances ``(R, N, 4)``, ``(R, N, 4, 4)``, degenerate counts (R,) and wall seconds."""
     kf = PseudoLinearGM(kind, sc.f, sc.q, sc.bearing.scaled(rho), x0, sc.p0, constraint, feedback, options or {})

@@ -12,7 +12,7 @@ Metrics (Eq. 14-16): a run diverges when its estimated initial position is more 
 20 km from the observer (at the first scan), or is not finite; position and velocity
 RMSE over the N runs that did not diverge; divergence in percent of all runs.  The
 bound beside them is the batch CRLB, the inverse Fisher information at the truth
-(:func:`.batch.crlb`).
+(:func:`uavsim.estimators.batch.crlb`).
 
 Seeds: run r of every cell draws from ``SeedSequence(seed).spawn(runs)[r]``, spawned into
 five streams (noise, NR, PSO, NRPSO, PSO with 1500 particles): the same standard normals in every cell with the
@@ -28,8 +28,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .batch import crlb, polynomial_basis
-from .nrpso import newton_raphson, nrpso, problem, pso
+from ..estimators.batch import crlb, polynomial_basis
+from ..estimators.nrpso import newton_raphson, nrpso, problem, pso
 
 DURATION = 600.0
 TURN_START, TURN_END, TURN_RATE_DEG, SPEED = 200.0, 300.0, 0.6, 3.0
@@ -221,11 +221,11 @@ def _fmt(x, spec):
 
 def table(result: dict) -> str:
     """The printed summary: per target, the sigma sweep (K = 600) and the K sweep (0.5 deg):
-    divergence (%) and position RMSE (m) per method, the CRLB, and for NR the reference
-    implementation's divergence from the notes."""
+    divergence (%) and position RMSE (m) per method, the CRLB, and for NR the independent
+    reference implementation's divergence."""
     methods = result["methods"]
     head = f"{'T':>2}{'sigma':>6}{'K':>5}" + "".join(f"{m + ' div%':>11}{m + ' pos':>10}" for m in methods)
-    head += f"{'CRLB pos':>10}{'notes NR div%':>15}{'no-bearings pos':>16}"
+    head += f"{'CRLB pos':>10}{'ref. NR div%':>15}{'no-bearings pos':>16}"
     lines = [f"oh2021 (003 Figs. 4-5): {result['runs']} runs per cell, seed {result['seed']}, "
              f"{len(result['cells'])} cells in {result['wall_seconds']:.0f} s ({result['workers']} workers)", head]
     for c in result["cells"]:

@@ -112,8 +112,8 @@ from functools import lru_cache
 
 import numpy as np
 
-from .sensing import Sensor
-from .targets import HORIZONTAL, Dynamics
+from ..sensing import Sensor
+from ..targets import HORIZONTAL, Dynamics
 
 MAX_SIGMA = np.pi / 8  # rad: the wrapped tail 2 Phi(-pi / sigma) of the bearing noise is < 1e-15
 _SQRT_2PI = np.sqrt(2.0 * np.pi)

@@ -1,12 +1,13 @@
-"""UAV decision rule, 004 Eq. (12)-(13), against a plain float64 loop and by geometry."""
+"""The pseudo-posterior traces (belief/traces.py, [Papaioannou2023] Eq. 12) and the UAV's
+decision on them (uav/grid.py, Eq. 13), against a plain float64 loop and by geometry."""
 
 import math
 
 import numpy as np
 
-from uavsim.belief.traces import decide, pseudo_traces
+from uavsim.belief.traces import pseudo_traces
 from uavsim.sensing import bearing, wrap_angle
-from uavsim.uav import move_offsets
+from uavsim.uav import decide, move_offsets
 
 SIGMA = math.radians(1.0)
 
