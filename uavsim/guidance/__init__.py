@@ -22,17 +22,21 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
-import cvxpy as cp
 import numpy as np
 
 from ..targets import HORIZONTAL, Dynamics
 from ..world import GROUND_BAND_M, World
-from .compiled import assemble_p1
 from .faces import Reach
-from .model import KN, GuidanceConfig, build_p1, geometry
-from .oa import Budget, OuterApproximation
-from .qp import SolverError
+from .model import KN, GuidanceConfig, geometry
+
+if TYPE_CHECKING:
+    from .oa import Budget
+
+# The solvers (.compiled, .oa, .qp: HiGHS, DAQP, Clarabel, scipy.linalg) are imported by
+# the methods that use them, and cvxpy by the SCIP path only: reading a mission imports
+# this package (for GuidanceConfig) and must stay light (tests/test_layout.py).
 
 SOLVERS = ("highs", "scip")
 WALL_CAP = 4.0  # a solve stops at this many times its nominal budget, plus one second
@@ -127,8 +131,13 @@ class Guidance:
             reach = Reach.build(dyn.dt, dyn.friction, dyn.mass, horizon, rho, self.cfg.speed_max,
                                 self.cfg.force_max / KN, g.area_lo, g.area_hi)
             if self.solver == "scip":
+                from .model import build_p1
+
                 oa = build_p1(self.world, dyn, replace(self.cfg, horizon=horizon))
             else:
+                from .compiled import assemble_p1
+                from .oa import OuterApproximation
+
                 c = assemble_p1(g, dyn.dt, dyn.friction, dyn.mass, horizon, rho, self.cfg.force_max / KN)
                 oa = OuterApproximation(c, g, reach, self.cfg.gap)
             self._models[horizon] = (reach, oa)
@@ -137,6 +146,8 @@ class Guidance:
     @staticmethod
     def budget(seconds: float, master: bool) -> Budget:
         """A :class:`Budget` of ``seconds`` nominal QP time (counted in QPs by the solver)."""
+        from .oa import Budget
+
         return Budget(seconds, time.perf_counter() + WALL_CAP * seconds + 1.0, master)
 
     def horizon_at(self, step: int) -> int:
@@ -165,6 +176,8 @@ class Guidance:
         same budget again solves P1 as published and the plan says so
         (:attr:`Plan.unreachable`).
         """
+        from .qp import SolverError
+
         t0 = time.perf_counter()
         horizon = self.horizon_at(step)
         key = None
@@ -310,6 +323,8 @@ class Guidance:
         alike ("optimal_inaccurate"), so only a proved optimum is called "optimal" (gap 0);
         anything else is a time limit with an unknown lower bound.
         """
+        import cvxpy as cp
+
         p.x0.value, p.goal.value = x0, goal
         if p.box is not None:
             p.box.value = np.r_[box[0], box[1]]
