@@ -201,11 +201,39 @@ def _campaign(args: argparse.Namespace, mission: Mission, planner: str, out: Pat
     from .campaign import CampaignError, run_campaign
 
     try:
+        resume = _continues(args, mission, planner, out)
         return run_campaign(mission, planner, out=out, workers=_workers(args),
-                            scheduler=args.scheduler, resume=args.resume, progress=_progress(args, planner),
+                            scheduler=args.scheduler, resume=resume, progress=_progress(args, planner),
                             record=record)
     except CampaignError as exc:
         raise UsageError(str(exc)) from None
+
+
+def _continues(args: argparse.Namespace, mission: Mission, planner: str, out: Path) -> bool:
+    """Whether this run continues the campaign ``out`` already holds, and says which: a
+    finished one of the same mission and arguments (the same fingerprint) is reused, an
+    unfinished one resumed; another campaign is refused, unless ``--fresh`` replaces it."""
+    from .campaign import clear, held
+
+    if args.fresh and args.resume:
+        raise UsageError("--fresh starts the campaign over and --resume continues it: give one")
+    found = held(out, mission, planner)
+    if found is None:
+        return False
+    if args.fresh:
+        clear(out)
+        print(f"--fresh: deleted the {found.done} finished trials in {out}; running the campaign from the start")
+        return False
+    if found.differs:
+        raise UsageError(f"{out} holds another campaign, not this run's ({found.differs}): choose another --out, "
+                         "or pass --fresh to replace it")
+    if found.done >= mission.trials:
+        print(f"reusing the finished campaign in {out} ({mission.trials} trials, same mission and arguments); "
+              "pass --fresh to run it again")
+    else:
+        print(f"resuming the unfinished campaign in {out}: {found.done} of {mission.trials} trials done, running "
+              "the rest; pass --fresh to start over")
+    return True
 
 
 def _baseline(args: argparse.Namespace, mission: Mission, out: Path, cache: dict) -> dict:
@@ -544,7 +572,12 @@ def _campaign_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--clutter-rate", type=float, help="override sensor.clutter_rate (false alarms per scan)")
     p.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run the trials on a Dask cluster (tcp://host:8786)")
-    p.add_argument("--resume", action="store_true", help="continue the campaign in the output folder")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the campaign in the output folder (what a run does anyway when the folder holds "
+                        "this run's campaign: a finished one is reused, an unfinished one resumed)")
+    p.add_argument("--fresh", action="store_true",
+                   help="delete the campaign in the output folder (its manifest and trial files) and run from the "
+                        "start")
     p.add_argument("--quiet", action="store_true", help="no progress output")
 
 
@@ -677,7 +710,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("\ninterrupted: finished trials are kept in the output folder; continue with --resume",
+        print("\ninterrupted: finished trials are kept in the output folder; the same command continues them",
               file=sys.stderr)
         return 130
 
