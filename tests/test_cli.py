@@ -1,6 +1,9 @@
 """Command-line paths and arguments: every bad one is one ``error:`` line and exit 2,
 found before any work starts (no trial runs, nothing is half-written)."""
 
+import argparse
+import importlib.metadata
+import inspect
 import json
 import os
 import subprocess
@@ -9,8 +12,9 @@ import sys
 import pytest
 
 from uavsim.campaign import FORMAT, fingerprint
-from uavsim.cli import main
+from uavsim.cli import build_parser, main
 from uavsim.config import load_mission
+from uavsim.guidance import SOLVERS, Guidance
 
 from .conftest import PAPER
 
@@ -160,3 +164,56 @@ def test_out_file_through_the_entry_point(a_file):
                           capture_output=True, text=True)
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr == f"error: --out {a_file}: is a file, not a folder; choose another --out\n"
+
+
+# --- first contact: help, version, plan --json, what the NEES lines mean --------------------
+
+def parsers(parser=None, name="uavsim"):
+    """Every parser of the command line: (its name, the parser)."""
+    parser = parser or build_parser()
+    yield name, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub, p in action.choices.items():
+                yield from parsers(p, f"{name} {sub}")
+
+
+def test_help_is_plain_text_and_every_positional_says_what_it_is():
+    seen = 0
+    for name, parser in parsers():
+        text = parser.format_help()
+        assert "``" not in text and ":func:" not in text and ":mod:" not in text, name
+        for action in parser._actions:
+            if not action.option_strings and not isinstance(action, argparse._SubParsersAction):
+                assert action.help, f"{name}: positional {action.dest} has no help"
+                seen += 1
+    assert seen >= 6  # validate, plan, run, compare, sweep, tma reproduce
+
+
+def test_top_level_help_lists_examples_that_parse(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--help"])
+    assert exit_.value.code == 0
+    text = capsys.readouterr().out
+    examples = [line.split("  ")[1].strip() for line in text.split("examples:\n")[1].splitlines()
+                if line.startswith("  uavsim ")]
+    assert 3 <= len(examples) <= 4
+    for example in examples:
+        build_parser().parse_args(example.split()[1:])  # each one is a valid command line
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code == 0
+    assert capsys.readouterr().out == f"uavsim {importlib.metadata.version('uavsim')}\n"
+
+
+def test_plan_solver_help_names_the_true_default():
+    """The default is the code's (Guidance's own default), and the help marks that one."""
+    default = inspect.signature(Guidance).parameters["solver"].default
+    assert build_parser().parse_args(["plan", M]).solver == default
+    plan = dict(parsers())["uavsim plan"]
+    solver = next(a for a in plan._actions if "--solver" in a.option_strings)
+    assert solver.help.count("(default)") == 1 and f"{default} (default): " in solver.help
+    assert set(solver.choices) == set(SOLVERS)

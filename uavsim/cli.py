@@ -51,6 +51,11 @@ def cmd_validate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _plain(text: str) -> str:
+    """reST inline literals (````x````) as plain text, for --help."""
+    return text.replace("``", "")
+
+
 class UsageError(Exception):
     """A command-line request that cannot be carried out (exit status 2)."""
 
@@ -565,7 +570,7 @@ def _reproduce_oliva2021(args: argparse.Namespace) -> int:
 
 
 def _campaign_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mission")
+    p.add_argument("mission", help=MISSION_HELP)
     p.add_argument("--trials", type=int, help="Monte-Carlo trials (default: the mission's)")
     p.add_argument("--steps", type=int, help="time steps per trial (default: the mission's)")
     p.add_argument("--seed", type=int, help="campaign seed; trial k uses SeedSequence(seed).spawn(trials)[k]")
@@ -588,18 +593,54 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
 
 
+class _Version(argparse.Action):
+    """``--version``: ``uavsim <version>`` from the installed package's metadata (read
+    only when asked: importlib.metadata is not free at every start)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            number = version("uavsim")
+        except PackageNotFoundError:  # run from a source tree that is not installed
+            from . import __version__ as number
+        print(f"uavsim {number}")
+        parser.exit(0)
+
+
+EXAMPLES = """examples:
+  uavsim validate missions/paper.toml               check a mission and its world, print a summary
+  uavsim run missions/paper.toml --trials 4         4 Monte-Carlo trials; writes runs/paper-optimized/
+  uavsim plan missions/paper.toml --json            every target's guidance plan from its prior
+  uavsim compare missions/paper.toml --planners optimized,circle --trials 10 --out runs/cmp
+
+Every command validates its mission first; a bad file or argument is one 'error:' line, exit status 2.
+"""
+MISSION_HELP = "the mission file (TOML), e.g. missions/paper.toml"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="uavsim", description=__doc__.splitlines()[0])
+    from . import __doc__ as package_doc
+    from .guidance import DEFAULT_SOLVER, SOLVERS
+
+    parser = _Parser(prog="uavsim", description=_plain(package_doc.splitlines()[0]), epilog=EXAMPLES,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action=_Version, help="print uavsim's version and exit")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("validate", help="check a mission file and print a summary")
-    p.add_argument("mission")
+    p.add_argument("mission", help=MISSION_HELP)
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("plan", help="solve the guidance problem (P1) for every target from its prior")
-    p.add_argument("mission")
-    p.add_argument("--json", action="store_true", help="print per-target plans as JSON")
-    p.add_argument("--solver", choices=("highs", "scip"), default="highs",
-                   help="highs: exact outer approximation (default); scip: SCIP through cvxpy, for cross-checks")
+    p.add_argument("mission", help=MISSION_HELP)
+    p.add_argument("--json", action="store_true", help="print the plans as one JSON object, with the planned "
+                   "positions and controls")
+    p.add_argument("--solver", choices=tuple(SOLVERS), default=DEFAULT_SOLVER,
+                   help="; ".join(f"{name}{' (default)' if name == DEFAULT_SOLVER else ''}: {what}"
+                                  for name, what in SOLVERS.items()))
     p.add_argument("--time-limit", type=float, default=None, help="seconds per target (default: the mission's)")
     p.add_argument("--terminal", choices=("soft", "hard"), help="soft: P1 as published; hard: every plan must end "
                    "in its goal region, or says the region is unreachable (default: the mission's guidance.terminal)")
@@ -633,7 +674,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     tma = sub.add_parser("tma", help="the estimator library (papers 000-003)").add_subparsers(dest="tma", required=True)
     p = tma.add_parser("reproduce", help="a paper's simulation study; writes DIR/result.json and figures")
-    p.add_argument("name", choices=(*SCENARIOS, *LI2022, "oh2021", "oliva2021"))
+    p.add_argument("name", choices=(*SCENARIOS, *LI2022, "oh2021", "oliva2021"),
+                   help="the study: a scenario of [Huang2021] or [Li2022], or the study of [Oh2021] or [Oliva2021]")
     p.add_argument("--runs", type=int, help="Monte-Carlo runs (default: the paper's; 300 huang2021, 1000 li2022 "
                    "and oh2021, 100 oliva2021)")
     p.add_argument("--seed", type=int, default=2021, help="run r uses SeedSequence(seed).spawn(runs)[r]")

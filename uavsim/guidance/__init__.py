@@ -38,7 +38,12 @@ if TYPE_CHECKING:
 # the methods that use them, and cvxpy by the SCIP path only: reading a mission imports
 # this package (for GuidanceConfig) and must stay light (tests/test_layout.py).
 
-SOLVERS = ("highs", "scip")
+SOLVERS = {  # name -> what it is (`uavsim plan --solver`'s help)
+    "highs": "exact, with a certified gap: branch-and-bound over the obstacle faces, each node a QP (DAQP, "
+             "Clarabel as fallback), HiGHS for the outer-approximation master",
+    "scip": "SCIP through cvxpy (pip install 'uavsim[scip]'), for cross-checks",
+}
+DEFAULT_SOLVER = "highs"
 WALL_CAP = 4.0  # a solve stops at this many times its nominal budget, plus one second
 SENSITIVITY_STEP = np.array([1e-3, 1e-3, 1e-4, 1e-4])  # m, m, m/s, m/s (Guidance.sensitivity)
 
@@ -115,9 +120,9 @@ class Guidance:
     so plans are reproducible whatever order targets or trials are solved in.
     """
 
-    def __init__(self, world: World, dynamics: Dynamics, cfg: GuidanceConfig, solver: str = "highs"):
+    def __init__(self, world: World, dynamics: Dynamics, cfg: GuidanceConfig, solver: str = DEFAULT_SOLVER):
         if solver not in SOLVERS:
-            raise ValueError(f"unknown guidance solver {solver!r}; choose from {SOLVERS}")
+            raise ValueError(f"unknown guidance solver {solver!r}; choose from {', '.join(SOLVERS)}")
         self.world, self.dynamics, self.cfg, self.solver = world, dynamics, cfg, solver
         self.geom = geometry(world, dynamics, cfg)
         self._models: dict[int, tuple] = {}
