@@ -6,6 +6,7 @@ import importlib.metadata
 import inspect
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -217,3 +218,33 @@ def test_plan_solver_help_names_the_true_default():
     solver = next(a for a in plan._actions if "--solver" in a.option_strings)
     assert solver.help.count("(default)") == 1 and f"{default} (default): " in solver.help
     assert set(solver.choices) == set(SOLVERS)
+
+
+def test_plan_json_is_one_readable_object(capsys):
+    assert main(["plan", M, "--json"]) in (0, 1)
+    text = capsys.readouterr().out
+    doc = json.loads(text)
+    m = load_mission(PAPER)
+    assert set(doc) == {"mission", "solver", "plans"} and doc["solver"] == "highs"
+    assert [p["id"] for p in doc["plans"]] == [t.name for t in m.targets]
+    positions = doc["plans"][0]["positions"]
+    assert len(positions) == m.guidance.horizon and all(len(p) == 3 for p in positions)
+    lines = text.splitlines()
+    assert not any(re.fullmatch(r"\s*-?[\d.eE+-]+,?", line) for line in lines)  # no number alone on a line
+    assert f"    {json.dumps(positions[0])}," in lines  # a planned point is one line
+    assert len(lines) < 2 * len(m.targets) * (2 * m.guidance.horizon + 20)
+
+
+def test_run_explains_its_nees_lines(capsys, tmp_path):
+    """Under the NEES lines: what is averaged (n = trials x targets), the interval (chi-square
+    with n x dof degrees of freedom, / n, the printed band) and what a consistent filter gives."""
+    from scipy import stats
+
+    assert main(["run", M, "--trials", "2", "--steps", "1", "--quiet", "--workers", "1", "--out",
+                 str(tmp_path)]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "averaged each step over the n = 2 x 4 = 8 trial-targets" in out
+    assert "chi-square with n x dof degrees of freedom, divided by n: it lies in the band with probability 95%, " \
+           "so about 95% of steps fall inside and the mean is near dof" in out
+    lo, hi = stats.chi2.ppf([0.025, 0.975], 8 * 2) / 8
+    assert "NEES position (dof 2): mean" in out and f"95% band [{lo:.2f}, {hi:.2f}]" in out

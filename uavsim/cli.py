@@ -16,6 +16,7 @@ import math
 import os
 import sys
 import tempfile
+import textwrap
 from dataclasses import replace
 from pathlib import Path
 
@@ -116,6 +117,18 @@ def _finite(x):
     return x if not isinstance(x, float) or math.isfinite(x) else None
 
 
+def _json_text(value, indent: str = "") -> str:
+    """JSON a person can read: objects and lists of lists one item per line, a list of
+    numbers (a planned point, a control) on one line."""
+    inner = indent + " "
+    if isinstance(value, dict) and value:
+        items = [f"{inner}{json.dumps(str(k))}: {_json_text(v, inner)}" for k, v in value.items()]
+        return "{\n" + ",\n".join(items) + f"\n{indent}}}"
+    if isinstance(value, list) and any(isinstance(v, (dict, list)) for v in value):
+        return "[\n" + ",\n".join(inner + _json_text(v, inner) for v in value) + f"\n{indent}]"
+    return json.dumps(value)
+
+
 def cmd_plan(args: argparse.Namespace) -> int:
     from .declare import specs
     from .guidance import Guidance
@@ -143,8 +156,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
             "positions": plan.positions if plan.ok else None, "controls": plan.controls if plan.ok else None,
         })
     if args.json:
-        json.dump([{k: _finite(v) for k, v in r.items()} for r in rows], sys.stdout, indent=1)
-        print()
+        print(_json_text({"mission": str(mission.path), "solver": args.solver,
+                          "plans": [{k: _finite(v) for k, v in r.items()} for r in rows]}))
     else:
         print(f"{'id':<8}{'status':<12}{'objective m^2':>16}{'gap':>10}{'iter':>6}{'seconds':>9}")
         for r in rows:
@@ -280,12 +293,25 @@ def _print_summary(s: dict) -> None:
               f"(second half {b['ratio_second_half']:.3f}), paired t {b['paired_t']:.1f}")
     for key, label in (("pos", "position"), ("state", "state")):
         n = s["nees"][key]
-        print(f"  NEES {label} (dof {n['dof']}): mean {np.mean(n['mean']):.2f}, 95% band "
+        print(f"  NEES {label} (dof {n['dof']}): mean {np.mean(n['mean']):.2f}, {n['level']:.0%} band "
               f"[{n['band'][0]:.2f}, {n['band'][1]:.2f}]: inside {n['inside']:.0%} of steps, "
               f"below {n['below']:.0%}, above {n['above']:.0%}")
+    print(_nees_note(s["trials"], len(s["targets"]), s["nees"]["pos"]["level"]))
     t = s["timing"]
     print(f"  median s/step: guidance {t['guidance']:.3f}, filter {t['filter']:.3f}, planner {t['planner']:.4f}, "
           f"truth {t['truth']:.3f}, total {t['total']:.3f}; guidance plans {s['guidance_status']}")
+
+
+def _nees_note(trials: int, targets: int, level: float) -> str:
+    """What the NEES lines mean (:func:`uavsim.metrics.consistency`), under them."""
+    n = trials * targets
+    return textwrap.fill(
+        f"NEES = e' P^-1 e, the error of the estimate weighted by the filter's inverse covariance, averaged each step "
+        f"over the n = {trials} x {targets} = {n} trial-targets. For a consistent filter that average is chi-square "
+        f"with n x dof degrees of freedom, divided by n: it lies in the band with probability {level:.0%}, so about "
+        f"{level:.0%} of steps fall inside and the mean is near dof. Below the band the covariance is wider than the "
+        "errors (pessimistic); above, narrower (overconfident).", width=110, initial_indent="    ",
+        subsequent_indent="    ")
 
 
 def cmd_run(args: argparse.Namespace) -> int:
