@@ -64,7 +64,8 @@ def timings(root: Path, repeats: int) -> dict:
         for name, (args, expect) in cases(root, Path(scratch)).items():
             run(root, args, expect)  # warm the file cache
             walls = [run(root, args, expect)[0] for _ in range(repeats)]
-            out[name] = {"args": args, "median_s": statistics.median(walls), "min_s": min(walls),
+            shown = [a.replace(scratch, "TMP") for a in args]  # no path outside the repository in the record
+            out[name] = {"args": shown, "median_s": statistics.median(walls), "min_s": min(walls),
                          "max_s": max(walls), "walls_s": walls}
         return out
 
