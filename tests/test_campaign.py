@@ -12,7 +12,7 @@ import time
 import numpy as np
 import pytest
 
-from uavsim.campaign import run_campaign
+from uavsim.campaign import CampaignError, run_campaign
 from uavsim.cli import main
 from uavsim.config import load_mission
 from uavsim.progress import Progress
@@ -64,15 +64,87 @@ def test_sigkill_mid_campaign_then_resume_loses_and_repeats_nothing(tmp_path):
     assert results(a) == results(b)
 
 
-def test_resume_refuses_another_campaign_and_overwrite(tmp_path, capsys):
+def trial_files(out):
+    return {p.name: p.stat().st_mtime_ns for p in (out / "trials").glob("trial-*.npz")}
+
+
+def test_a_second_run_reuses_a_finished_campaign(tmp_path, capsys):
+    """The quick start's line run twice: the second run says it reuses the folder and how
+    to run afresh, prints the summary, and runs no trial (the files are not rewritten)."""
     mission = str(write_small_mission(tmp_path))
-    out = str(tmp_path / "c")
-    base = ["run", mission, "--trials", "1", "--steps", "2", "--workers", "1", "--quiet", "--out", out]
+    out = tmp_path / "c"
+    base = ["run", mission, "--trials", "1", "--steps", "2", "--workers", "1", "--quiet", "--out", str(out)]
     assert main(base) == 0
-    assert main(base) == 2
-    assert "already holds a campaign (1 trials done): pass --resume" in capsys.readouterr().err
-    assert main(base + ["--resume", "--seed", "99"]) == 2
-    assert "holds a different campaign" in capsys.readouterr().err
+    first = capsys.readouterr().out
+    files = trial_files(out)
+    assert main(base) == 0
+    captured = capsys.readouterr()
+    lines = captured.out.splitlines()
+    assert lines[:2] == [f"reusing the finished campaign in {out} (1 trials, same mission and arguments); "
+                         "pass --fresh to run it again",
+                         f"reusing the finished campaign in {out / 'baseline'} (1 trials, same mission and "
+                         "arguments); pass --fresh to run it again"]
+    assert trial_files(out) == files
+    strip = [line for line in first.splitlines() if "s/step" not in line]  # timings are measurements
+    assert [line for line in lines[2:] if "s/step" not in line] == strip
+    assert main(base + ["--resume"]) == 0  # --resume is accepted as before
+    assert "reusing the finished campaign" in capsys.readouterr().out
+
+
+def test_a_second_run_resumes_an_unfinished_campaign(tmp_path, capsys):
+    """More trials than the folder holds: the finished one is kept, the rest run, and the
+    run says so; the summary equals a run from scratch."""
+    mission = str(write_small_mission(tmp_path))
+    out, whole = tmp_path / "c", tmp_path / "whole"
+    base = ["run", mission, "--steps", "2", "--workers", "1", "--quiet"]
+    assert main(base + ["--trials", "1", "--out", str(out)]) == 0
+    kept = trial_files(out)
+    capsys.readouterr()
+    assert main(base + ["--trials", "2", "--out", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert f"resuming the unfinished campaign in {out}: 1 of 2 trials done, running the rest; pass --fresh" in said
+    now = trial_files(out)
+    assert sorted(now) == ["trial-00000.npz", "trial-00001.npz"] and now["trial-00000.npz"] == kept["trial-00000.npz"]
+    assert main(base + ["--trials", "2", "--out", str(whole)]) == 0
+    a, b = (json.loads((d / "summary.json").read_text()) for d in (out, whole))
+    assert results(a) == results(b)
+
+
+def test_another_campaign_is_refused_with_what_differs_then_replaced_by_fresh(tmp_path, capsys):
+    mission = str(write_small_mission(tmp_path))
+    out = tmp_path / "c"
+    base = ["run", mission, "--trials", "1", "--steps", "2", "--workers", "1", "--quiet", "--out", str(out)]
+    assert main(base) == 0
+    files = trial_files(out)
+    capsys.readouterr()
+    for extra, differs in [(["--seed", "99"], "seed 99 in this run, 2023 there"),
+                           (["--clutter-rate", "8"], "sensor.clutter_rate 8.0 in this run, 1.0 there"),
+                           (["--planner", "circle"], "planner circle in this run, optimized there"),
+                           (["--seed", "99", "--resume"], "seed 99 in this run, 2023 there")]:
+        assert main(base + extra) == 2
+        err = capsys.readouterr().err.strip()
+        assert err == (f"error: {out} holds another campaign, not this run's ({differs}): choose another --out, "
+                       "or pass --fresh to replace it"), err
+        assert trial_files(out) == files  # nothing touched
+    assert main(base + ["--fresh", "--resume"]) == 2
+    assert "--fresh starts the campaign over and --resume continues it: give one" in capsys.readouterr().err
+    assert main(base + ["--seed", "99", "--fresh"]) == 0
+    assert f"--fresh: deleted the 1 finished trials in {out}; running the campaign from the start" \
+        in capsys.readouterr().out
+    assert json.loads((out / "campaign.json").read_text())["seed"] == 99
+    assert trial_files(out)["trial-00000.npz"] != files["trial-00000.npz"]
+    # a folder of an earlier uavsim (no settings in its manifest) still says what it can
+    manifest = json.loads((out / "campaign.json").read_text())
+    del manifest["settings"]
+    (out / "campaign.json").write_text(json.dumps(manifest))
+    assert main(base + ["--seed", "98"]) == 2
+    assert "(seed 98 in this run, 99 there)" in capsys.readouterr().err
+    assert main(base + ["--seed", "99", "--clutter-rate", "8"]) == 2
+    assert f"(the settings of mission {mission} or its world differ)" in capsys.readouterr().err
+    # the library's run_campaign is unchanged: it continues only when asked to
+    m = load_mission(mission, {"trials": 1, "steps": 2, "seed": 99})
+    with pytest.raises(CampaignError, match="already holds a campaign .1 trials done.: pass --resume"):
+        run_campaign(m, "optimized", out=out)
 
 
 def test_progress_bar_and_lines():

@@ -1,16 +1,21 @@
 """Command-line paths and arguments: every bad one is one ``error:`` line and exit 2,
 found before any work starts (no trial runs, nothing is half-written)."""
 
+import argparse
+import importlib.metadata
+import inspect
 import json
 import os
+import re
 import subprocess
 import sys
 
 import pytest
 
 from uavsim.campaign import FORMAT, fingerprint
-from uavsim.cli import main
+from uavsim.cli import build_parser, main
 from uavsim.config import load_mission
+from uavsim.guidance import SOLVERS, Guidance
 
 from .conftest import PAPER
 
@@ -160,3 +165,86 @@ def test_out_file_through_the_entry_point(a_file):
                           capture_output=True, text=True)
     assert proc.returncode == 2 and proc.stdout == ""
     assert proc.stderr == f"error: --out {a_file}: is a file, not a folder; choose another --out\n"
+
+
+# --- first contact: help, version, plan --json, what the NEES lines mean --------------------
+
+def parsers(parser=None, name="uavsim"):
+    """Every parser of the command line: (its name, the parser)."""
+    parser = parser or build_parser()
+    yield name, parser
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub, p in action.choices.items():
+                yield from parsers(p, f"{name} {sub}")
+
+
+def test_help_is_plain_text_and_every_positional_says_what_it_is():
+    seen = 0
+    for name, parser in parsers():
+        text = parser.format_help()
+        assert "``" not in text and ":func:" not in text and ":mod:" not in text, name
+        for action in parser._actions:
+            if not action.option_strings and not isinstance(action, argparse._SubParsersAction):
+                assert action.help, f"{name}: positional {action.dest} has no help"
+                seen += 1
+    assert seen >= 6  # validate, plan, run, compare, sweep, tma reproduce
+
+
+def test_top_level_help_lists_examples_that_parse(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--help"])
+    assert exit_.value.code == 0
+    text = capsys.readouterr().out
+    examples = [line.split("  ")[1].strip() for line in text.split("examples:\n")[1].splitlines()
+                if line.startswith("  uavsim ")]
+    assert 3 <= len(examples) <= 4
+    for example in examples:
+        build_parser().parse_args(example.split()[1:])  # each one is a valid command line
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--version"])
+    assert exit_.value.code == 0
+    assert capsys.readouterr().out == f"uavsim {importlib.metadata.version('uavsim')}\n"
+
+
+def test_plan_solver_help_names_the_true_default():
+    """The default is the code's (Guidance's own default), and the help marks that one."""
+    default = inspect.signature(Guidance).parameters["solver"].default
+    assert build_parser().parse_args(["plan", M]).solver == default
+    plan = dict(parsers())["uavsim plan"]
+    solver = next(a for a in plan._actions if "--solver" in a.option_strings)
+    assert solver.help.count("(default)") == 1 and f"{default} (default): " in solver.help
+    assert set(solver.choices) == set(SOLVERS)
+
+
+def test_plan_json_is_one_readable_object(capsys):
+    assert main(["plan", M, "--json"]) in (0, 1)
+    text = capsys.readouterr().out
+    doc = json.loads(text)
+    m = load_mission(PAPER)
+    assert set(doc) == {"mission", "solver", "plans"} and doc["solver"] == "highs"
+    assert [p["id"] for p in doc["plans"]] == [t.name for t in m.targets]
+    positions = doc["plans"][0]["positions"]
+    assert len(positions) == m.guidance.horizon and all(len(p) == 3 for p in positions)
+    lines = text.splitlines()
+    assert not any(re.fullmatch(r"\s*-?[\d.eE+-]+,?", line) for line in lines)  # no number alone on a line
+    assert f"    {json.dumps(positions[0])}," in lines  # a planned point is one line
+    assert len(lines) < 2 * len(m.targets) * (2 * m.guidance.horizon + 20)
+
+
+def test_run_explains_its_nees_lines(capsys, tmp_path):
+    """Under the NEES lines: what is averaged (n = trials x targets), the interval (chi-square
+    with n x dof degrees of freedom, / n, the printed band) and what a consistent filter gives."""
+    from scipy import stats
+
+    assert main(["run", M, "--trials", "2", "--steps", "1", "--quiet", "--workers", "1", "--out",
+                 str(tmp_path)]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "averaged each step over the n = 2 x 4 = 8 trial-targets" in out
+    assert "chi-square with n x dof degrees of freedom, divided by n: it lies in the band with probability 95%, " \
+           "so about 95% of steps fall inside and the mean is near dof" in out
+    lo, hi = stats.chi2.ppf([0.025, 0.975], 8 * 2) / 8
+    assert "NEES position (dof 2): mean" in out and f"95% band [{lo:.2f}, {hi:.2f}]" in out

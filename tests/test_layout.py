@@ -54,6 +54,34 @@ def test_only_the_entry_points_import_the_file_reader():
     assert users == {"uavsim.cli", "uavsim.env"}
 
 
+# Packages reading a mission must not import: the solvers' model layer, the viewer, the
+# plots, the cluster, and scipy (0.25 s of the 0.5 s budget of `uavsim validate`;
+# benchmarks/startup.py measures it).  Each is imported where it is used.
+HEAVY = ("cvxpy", "rerun", "matplotlib", "dask", "distributed", "scipy", "highspy", "gymnasium")
+
+
+def test_the_command_line_reads_a_mission_without_the_heavy_packages():
+    """``import uavsim.cli``, then parse and validate the paper mission as ``uavsim validate``
+    does, in a fresh interpreter: none of HEAVY is in ``sys.modules``.  The control, an
+    import of the guidance solver and the campaign, does import some, so the check can fail."""
+    probe = ("import sys, contextlib, io\n"
+             "import uavsim.cli as cli\n"
+             "args = cli.build_parser().parse_args(['validate', sys.argv[1]])\n"
+             "with contextlib.redirect_stdout(io.StringIO()) as out:\n"
+             "    assert args.func(args) == 0\n"
+             "assert 'targets' in out.getvalue()\n"
+             "{extra}"
+             "print(' '.join(sorted({{m.split('.')[0] for m in sys.modules}} & set(sys.argv[2:]))))\n")
+
+    def loaded(extra: str = "") -> set[str]:
+        proc = subprocess.run([sys.executable, "-c", probe.format(extra=extra), str(PAPER), *HEAVY],
+                              capture_output=True, text=True, check=True)
+        return set(proc.stdout.split())
+
+    assert loaded() == set()
+    assert {"highspy", "scipy"} <= loaded("import uavsim.guidance.oa, uavsim.campaign\n")
+
+
 def test_the_estimator_library_stands_alone():
     """The methods (``uavsim.estimators``) import none of uavsim's other modules: not the
     simulator, not a bound, and not the papers' studies, which use them."""

@@ -9,6 +9,7 @@ from uavsim.world import (
     free_space,
     ground_footprints,
     inside_polytopes,
+    label_grid,
     segments_hit_polytopes,
 )
 
@@ -155,3 +156,22 @@ def test_enclosed_goal_and_a_start_inside_a_margin():
     in_wall = space.start_labels(np.array([72.0, 50.0]))  # inside the west wall
     assert not space.is_free(np.array([72.0, 50.0]))
     assert in_wall == outside | inside
+
+
+def test_label_grid_is_scipy_ndimage_label():
+    """The numpy labelling that keeps scipy out of reading a mission gives the labels of
+    ``scipy.ndimage.label`` (4-connectivity, numbered in C order of first cells) exactly:
+    random masks of every density, a one-component snake (the longest chain of merges),
+    a checkerboard (no two cells joined) and empty shapes."""
+    from scipy import ndimage
+
+    rng = np.random.default_rng(5)
+    masks = [rng.random(tuple(rng.integers(1, 25, 2))) < rng.random() for _ in range(500)]
+    snake = np.ones((41, 40), bool)
+    snake[1::4, :-1] = False
+    snake[3::4, 1:] = False
+    masks += [snake, np.indices((9, 7)).sum(axis=0) % 2 == 0, np.zeros((3, 4), bool), np.ones((1, 1), bool),
+              np.zeros((0, 5), bool)]
+    for mask in masks:
+        np.testing.assert_array_equal(label_grid(mask), ndimage.label(mask)[0])
+    assert label_grid(snake).max() == 1 and label_grid(masks[-4]).max() == 32

@@ -13,7 +13,10 @@
   not kept in memory, and the summary is computed from those files; with workers, at
   most two trials per worker are in flight.  So memory does not grow with the trial
   count while the trials run.  ``resume`` runs only the trials without
-  a file, after checking ``DIR/campaign.json`` describes the same campaign.
+  a file, after checking ``DIR/campaign.json`` describes the same campaign (the same
+  fingerprint; the trial count may differ).  :func:`held` says what a folder holds
+  before a run: the command line reuses a finished campaign of the same fingerprint,
+  resumes an unfinished one, and refuses another one, saying what differs.
 * **Metrics** (:mod:`.metrics`): the RMSE of Sec. VI-B per step and target, the
   per-trial mean squared errors (for paired statistics), the average NEES of the position
   (x, y) and of the full state with their 95% chi-square bands; the posterior Cramer-Rao
@@ -36,7 +39,7 @@ import threading
 import time
 import zipfile
 from concurrent.futures import ALL_COMPLETED, FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, fields, is_dataclass, replace
 from multiprocessing import get_context
 from pathlib import Path
 
@@ -45,6 +48,7 @@ from threadpoolctl import threadpool_limits
 
 from . import metrics
 from .bounds.pcrlb import Bound, pcrlb_planned
+from .declare import file_value
 from .files import write_atomic
 from .guidance import Guidance
 from .mission import Mission, mission_errors
@@ -246,6 +250,43 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
     not depend on the sensor, the UAV or the ``[planner]`` settings, which it leaves out; a
     policy's do not depend on the other policies' settings (nor on which planner the
     mission file names), which it leaves out too."""
+    data = asdict(_fingerprinted(mission, planner))
+    if data["filter"]["plan_clusters"] == 1:  # as before the setting existed: those folders still resume
+        del data["filter"]["plan_clusters"]
+    if data["guidance"]["terminal"] == "soft":  # likewise
+        del data["guidance"]["terminal"]
+    return hashlib.sha256(json.dumps(data, default=_plain, sort_keys=True).encode()).hexdigest()
+
+
+def _plain(o):
+    return o.tolist() if isinstance(o, np.ndarray) else str(o)
+
+
+def settings(mission: Mission, planner: str = "") -> dict[str, object]:
+    """What :func:`fingerprint` hashes, flat and readable: ``{"sensor.clutter_rate": 1.0,
+    "targets[0].mean0": [...], ...}``, a setting under its file key and unit where it has
+    one (``sigma_deg``), else under its field's name.  The manifest keeps it, so that a
+    folder holding another campaign can say what differs (:func:`held`)."""
+    out: dict[str, object] = {}
+
+    def walk(obj, key: str) -> None:
+        if is_dataclass(obj):
+            for f in fields(obj):
+                spec = f.metadata.get("setting")
+                value = getattr(obj, f.name)
+                walk(file_value(spec, value) if spec else value, f"{key}.{spec.key if spec else f.name}".lstrip("."))
+        elif isinstance(obj, (list, tuple)) and obj and all(is_dataclass(o) for o in obj):
+            for i, o in enumerate(obj):
+                walk(o, f"{key}[{i}]")
+        else:
+            out[key] = json.loads(json.dumps(obj, default=_plain))
+
+    walk(_fingerprinted(mission, planner), "")
+    return {k: v for k, v in out.items() if k not in ("path", "world_path", "trials")}  # not hashed: blanked
+
+
+def _fingerprinted(mission: Mission, planner: str) -> Mission:
+    """``mission`` less what does not change a trial of ``planner`` (see :func:`fingerprint`)."""
     mission = replace(mission, trials=0, path=Path("."), world_path=Path("."))
     if planner == BASELINE:
         mission = replace(mission, sensor=None, uav=None, planner=None, description="")
@@ -255,16 +296,7 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
             own, name=planner, manoeuvres=own.manoeuvres if planner in MANOEUVRES else None,
             fixed_sensors=own.fixed_sensors if planner == "fixed-sensors" else None,
             lookahead=own.lookahead if planner == "lookahead" else None))
-    data = asdict(mission)
-    if data["filter"]["plan_clusters"] == 1:  # as before the setting existed: those folders still resume
-        del data["filter"]["plan_clusters"]
-    if data["guidance"]["terminal"] == "soft":  # likewise
-        del data["guidance"]["terminal"]
-
-    def plain(o):
-        return o.tolist() if isinstance(o, np.ndarray) else str(o)
-
-    return hashlib.sha256(json.dumps(data, default=plain, sort_keys=True).encode()).hexdigest()
+    return mission
 
 
 def save_trial(folder: Path, r: TrialResult) -> None:
@@ -313,30 +345,109 @@ def _prepare_folder(out: Path, mission: Mission, planner: str, resume: bool) -> 
         raise CampaignError(f"{out}: cannot use this folder: {exc.filename or out}: {exc.strerror or exc}") from None
 
 
-def _prepare(out: Path, mission: Mission, planner: str, resume: bool) -> Path:
-    trials = out / "trials"
-    manifest = {"mission": str(mission.path), "planner": planner, "steps": mission.steps, "seed": mission.seed,
-                "fingerprint": fingerprint(mission, planner), "format": FORMAT}
-    path = out / "campaign.json"
-    n_done = len(list(trials.glob("trial-*.npz")))
+def _manifest(mission: Mission, planner: str) -> dict:
+    return {"mission": str(mission.path), "planner": planner, "steps": mission.steps, "seed": mission.seed,
+            "fingerprint": fingerprint(mission, planner), "format": FORMAT, "settings": settings(mission, planner)}
+
+
+COMPARED = ("planner", "steps", "seed", "fingerprint")  # manifest keys that must match to resume
+
+
+def _existing(out: Path) -> tuple[dict, list[Path]] | None:
+    """The manifest of ``out`` and its trial files; None when it holds no finished trial
+    (nothing to protect).  CampaignError when the folder cannot be a campaign's."""
+    trials, path = out / "trials", out / "campaign.json"
     if trials.exists() and not trials.is_dir():
         raise CampaignError(f"{trials} is a file, but the campaign keeps its trials in a folder of that name")
-    if path.exists() and n_done:  # a folder without finished trials has nothing to protect
-        try:
-            old = json.loads(path.read_text())
-        except (json.JSONDecodeError, UnicodeDecodeError):
-            raise CampaignError(f"{path} is not a campaign manifest (not JSON); use another --out") from None
-        if not isinstance(old, dict):
-            raise CampaignError(f"{path} is not a campaign manifest; use another --out")
+    files = list(trials.glob("trial-*.npz"))
+    if not (path.exists() and files):
+        return None
+    try:
+        old = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError):
+        raise CampaignError(f"{path} is not a campaign manifest (not JSON); use another --out") from None
+    if not isinstance(old, dict):
+        raise CampaignError(f"{path} is not a campaign manifest; use another --out")
+    return old, files
+
+
+def _difference(old: dict, new: dict) -> str:
+    """What differs between the manifest ``old`` and this run's ``new`` ("" if nothing)."""
+    if old.get("format") != FORMAT:
+        return (f"trials written by another uavsim version: trial format {old.get('format', 1)}, "
+                f"this one writes {FORMAT}")
+    if all(old.get(k) == new[k] for k in COMPARED):
+        return ""
+
+    def shown(v) -> str:
+        text = v if isinstance(v, str) else json.dumps(v)
+        return text if len(text) <= 24 else text[:21] + "..."
+
+    if old.get("planner") != new["planner"]:
+        return f"planner {shown(new['planner'])} in this run, {shown(old.get('planner'))} there"
+    if isinstance(old.get("settings"), dict):
+        a, b = old["settings"], new["settings"]
+        keys = [k for k in dict.fromkeys([*b, *a]) if a.get(k, "(none)") != b.get(k, "(none)")]
+        parts = [f"{k} {shown(b.get(k))} in this run, {shown(a.get(k))} there" for k in keys[:3]]
+        if parts:
+            return "; ".join(parts) + (f" and {len(keys) - 3} more" if len(keys) > 3 else "")
+    parts = [f"{k} {shown(new[k])} in this run, {shown(old.get(k))} there" for k in ("seed", "steps")
+             if old.get(k) != new[k]]
+    return "; ".join(parts) or f"the settings of mission {old.get('mission')} or its world differ"
+
+
+@dataclass(frozen=True)
+class Held:
+    """What an output folder holds before a campaign runs there (:func:`held`).
+
+    ``done``: finished trials this run can use (of its trials 0..n-1; every trial file
+    when the folder holds another campaign); ``differs``: "" when the folder holds this
+    very campaign (same mission settings, planner, seed, steps: only the trial count may
+    differ), else what differs, e.g. ``seed 99 in this run, 2023 there``."""
+
+    done: int
+    differs: str
+
+
+def held(out: Path, mission: Mission, planner: str) -> Held | None:
+    """What ``out`` holds for a campaign of ``mission`` with ``planner``: None when it holds
+    no finished trial (the campaign starts afresh there), else a :class:`Held`.
+
+    Raises
+    ------
+    CampaignError when ``out`` cannot hold a campaign (see :func:`run_campaign`).
+    """
+    try:
+        found = _existing(Path(out))
+    except OSError as exc:
+        raise CampaignError(f"{out}: cannot use this folder: {exc.filename or out}: {exc.strerror or exc}") from None
+    if found is None:
+        return None
+    old, files = found
+    differs = _difference(old, _manifest(mission, planner))
+    indices = {int(f.stem[6:]) for f in files if f.stem[6:].isdigit()}
+    return Held(len(files) if differs else sum(k < mission.trials for k in indices), differs)
+
+
+def clear(out: Path) -> None:
+    """Delete the campaign ``out`` holds: its manifest and trial files (nothing else)."""
+    for path in [Path(out) / "campaign.json", *(Path(out) / "trials").glob("trial-*.npz"),
+                 *(Path(out) / "trials").glob(".trial-*.tmp")]:
+        path.unlink(missing_ok=True)
+
+
+def _prepare(out: Path, mission: Mission, planner: str, resume: bool) -> Path:
+    trials, path = out / "trials", out / "campaign.json"
+    manifest = _manifest(mission, planner)
+    found = _existing(out)
+    if found is not None:
+        old, files = found
         if not resume:
-            raise CampaignError(f"{out} already holds a campaign ({n_done} trials done): pass --resume to continue "
-                                "it, or choose another --out")
-        if old.get("format") != FORMAT:
-            raise CampaignError(f"{out} holds trials written by another uavsim version (trial format "
-                                f"{old.get('format', 1)}, this one writes {FORMAT}): use another --out")
-        if any(old.get(k) != v for k, v in manifest.items() if k != "mission"):
-            raise CampaignError(f"{out} holds a different campaign ({old.get('planner')}, seed {old.get('seed')}, "
-                                f"{old.get('steps')} steps, mission {old.get('mission')}): use another --out")
+            raise CampaignError(f"{out} already holds a campaign ({len(files)} trials done): pass --resume to "
+                                "continue it, or choose another --out")
+        differs = _difference(old, manifest)
+        if differs:
+            raise CampaignError(f"{out} holds a different campaign ({differs}): use another --out")
     trials.mkdir(parents=True, exist_ok=True)
     for stale in trials.glob(".trial-*.tmp"):  # a writer killed before its rename
         stale.unlink()

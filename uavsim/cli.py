@@ -19,6 +19,7 @@ import os
 import signal
 import sys
 import tempfile
+import textwrap
 import threading
 from dataclasses import replace
 from pathlib import Path
@@ -60,6 +61,11 @@ def cmd_missions(args: argparse.Namespace) -> int:
     for name, path in shipped_missions().items():
         print(f"{name:<18} {load_mission(path).description}\n{'':<18} {path}")
     return 0
+
+
+def _plain(text: str) -> str:
+    """reST inline literals (````x````) as plain text, for --help."""
+    return text.replace("``", "")
 
 
 class UsageError(Exception):
@@ -122,6 +128,18 @@ def _finite(x):
     return x if not isinstance(x, float) or math.isfinite(x) else None
 
 
+def _json_text(value, indent: str = "") -> str:
+    """JSON a person can read: objects and lists of lists one item per line, a list of
+    numbers (a planned point, a control) on one line."""
+    inner = indent + " "
+    if isinstance(value, dict) and value:
+        items = [f"{inner}{json.dumps(str(k))}: {_json_text(v, inner)}" for k, v in value.items()]
+        return "{\n" + ",\n".join(items) + f"\n{indent}}}"
+    if isinstance(value, list) and any(isinstance(v, (dict, list)) for v in value):
+        return "[\n" + ",\n".join(inner + _json_text(v, inner) for v in value) + f"\n{indent}]"
+    return json.dumps(value)
+
+
 def cmd_plan(args: argparse.Namespace) -> int:
     from .declare import specs
     from .guidance import Guidance
@@ -149,8 +167,8 @@ def cmd_plan(args: argparse.Namespace) -> int:
             "positions": plan.positions if plan.ok else None, "controls": plan.controls if plan.ok else None,
         })
     if args.json:
-        json.dump([{k: _finite(v) for k, v in r.items()} for r in rows], sys.stdout, indent=1)
-        print()
+        print(_json_text({"mission": str(mission.path), "solver": args.solver,
+                          "plans": [{k: _finite(v) for k, v in r.items()} for r in rows]}))
     else:
         print(f"{'id':<8}{'status':<12}{'objective m^2':>16}{'gap':>10}{'iter':>6}{'seconds':>9}")
         for r in rows:
@@ -212,11 +230,39 @@ def _campaign(args: argparse.Namespace, mission: Mission, planner: str, out: Pat
     from .campaign import CampaignError, run_campaign
 
     try:
+        resume = _continues(args, mission, planner, out)
         return run_campaign(mission, planner, out=out, workers=_workers(args),
-                            scheduler=args.scheduler, resume=args.resume, progress=_progress(args, planner),
+                            scheduler=args.scheduler, resume=resume, progress=_progress(args, planner),
                             record=record)
     except CampaignError as exc:
         raise UsageError(str(exc)) from None
+
+
+def _continues(args: argparse.Namespace, mission: Mission, planner: str, out: Path) -> bool:
+    """Whether this run continues the campaign ``out`` already holds, and says which: a
+    finished one of the same mission and arguments (the same fingerprint) is reused, an
+    unfinished one resumed; another campaign is refused, unless ``--fresh`` replaces it."""
+    from .campaign import clear, held
+
+    if args.fresh and args.resume:
+        raise UsageError("--fresh starts the campaign over and --resume continues it: give one")
+    found = held(out, mission, planner)
+    if found is None:
+        return False
+    if args.fresh:
+        clear(out)
+        print(f"--fresh: deleted the {found.done} finished trials in {out}; running the campaign from the start")
+        return False
+    if found.differs:
+        raise UsageError(f"{out} holds another campaign, not this run's ({found.differs}): choose another --out, "
+                         "or pass --fresh to replace it")
+    if found.done >= mission.trials:
+        print(f"reusing the finished campaign in {out} ({mission.trials} trials, same mission and arguments); "
+              "pass --fresh to run it again")
+    else:
+        print(f"resuming the unfinished campaign in {out}: {found.done} of {mission.trials} trials done, running "
+              "the rest; pass --fresh to start over")
+    return True
 
 
 def _baseline(args: argparse.Namespace, mission: Mission, out: Path, cache: dict) -> dict:
@@ -258,12 +304,25 @@ def _print_summary(s: dict) -> None:
               f"(second half {b['ratio_second_half']:.3f}), paired t {b['paired_t']:.1f}")
     for key, label in (("pos", "position"), ("state", "state")):
         n = s["nees"][key]
-        print(f"  NEES {label} (dof {n['dof']}): mean {np.mean(n['mean']):.2f}, 95% band "
+        print(f"  NEES {label} (dof {n['dof']}): mean {np.mean(n['mean']):.2f}, {n['level']:.0%} band "
               f"[{n['band'][0]:.2f}, {n['band'][1]:.2f}]: inside {n['inside']:.0%} of steps, "
               f"below {n['below']:.0%}, above {n['above']:.0%}")
+    print(_nees_note(s["trials"], len(s["targets"]), s["nees"]["pos"]["level"]))
     t = s["timing"]
     print(f"  median s/step: guidance {t['guidance']:.3f}, filter {t['filter']:.3f}, planner {t['planner']:.4f}, "
           f"truth {t['truth']:.3f}, total {t['total']:.3f}; guidance plans {s['guidance_status']}")
+
+
+def _nees_note(trials: int, targets: int, level: float) -> str:
+    """What the NEES lines mean (:func:`uavsim.metrics.consistency`), under them."""
+    n = trials * targets
+    return textwrap.fill(
+        f"NEES = e' P^-1 e, the error of the estimate weighted by the filter's inverse covariance, averaged each step "
+        f"over the n = {trials} x {targets} = {n} trial-targets. For a consistent filter that average is chi-square "
+        f"with n x dof degrees of freedom, divided by n: it lies in the band with probability {level:.0%}, so about "
+        f"{level:.0%} of steps fall inside and the mean is near dof. Below the band the covariance is wider than the "
+        "errors (pessimistic); above, narrower (overconfident).", width=110, initial_indent="    ",
+        subsequent_indent="    ")
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -548,14 +607,19 @@ def _reproduce_oliva2021(args: argparse.Namespace) -> int:
 
 
 def _campaign_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("mission")
+    p.add_argument("mission", help=MISSION_HELP)
     p.add_argument("--trials", type=int, help="Monte-Carlo trials (default: the mission's)")
     p.add_argument("--steps", type=int, help="time steps per trial (default: the mission's)")
     p.add_argument("--seed", type=int, help="campaign seed; trial k uses SeedSequence(seed).spawn(trials)[k]")
     p.add_argument("--clutter-rate", type=float, help="override sensor.clutter_rate (false alarms per scan)")
     p.add_argument("--workers", type=int, help="local worker processes (default: all cores)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="run the trials on a Dask cluster (tcp://host:8786)")
-    p.add_argument("--resume", action="store_true", help="continue the campaign in the output folder")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the campaign in the output folder (what a run does anyway when the folder holds "
+                        "this run's campaign: a finished one is reused, an unfinished one resumed)")
+    p.add_argument("--fresh", action="store_true",
+                   help="delete the campaign in the output folder (its manifest and trial files) and run from the "
+                        "start")
     p.add_argument("--quiet", action="store_true", help="no progress output")
 
 
@@ -566,21 +630,57 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"error: {self.prog}: {message} (see {self.prog} --help)\n")
 
 
+class _Version(argparse.Action):
+    """``--version``: ``uavsim <version>`` from the installed package's metadata (read
+    only when asked: importlib.metadata is not free at every start)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            number = version("uavsim")
+        except PackageNotFoundError:  # run from a source tree that is not installed
+            from . import __version__ as number
+        print(f"uavsim {number}")
+        parser.exit(0)
+
+
+EXAMPLES = """examples:
+  uavsim validate missions/paper.toml               check a mission and its world, print a summary
+  uavsim run missions/paper.toml --trials 4         4 Monte-Carlo trials; writes runs/paper-optimized/
+  uavsim plan missions/paper.toml --json            every target's guidance plan from its prior
+  uavsim compare missions/paper.toml --planners optimized,circle --trials 10 --out runs/cmp
+
+Every command validates its mission first; a bad file or argument is one 'error:' line, exit status 2.
+"""
+MISSION_HELP = "the mission file (TOML), e.g. missions/paper.toml, or a shipped mission's name (see: uavsim missions)"
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="uavsim", description=__doc__.splitlines()[0])
+    from . import __doc__ as package_doc
+    from .guidance import DEFAULT_SOLVER, SOLVERS
+
+    parser = _Parser(prog="uavsim", description=_plain(package_doc.splitlines()[0]), epilog=EXAMPLES,
+                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action=_Version, help="print uavsim's version and exit")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("validate", help="check a mission file and print a summary")
-    p.add_argument("mission")
+    p.add_argument("mission", help=MISSION_HELP)
     p.set_defaults(func=cmd_validate)
 
     p = sub.add_parser("missions", help="list the missions shipped with uavsim; run one by name (uavsim run paper)")
     p.set_defaults(func=cmd_missions)
 
     p = sub.add_parser("plan", help="solve the guidance problem (P1) for every target from its prior")
-    p.add_argument("mission")
-    p.add_argument("--json", action="store_true", help="print per-target plans as JSON")
-    p.add_argument("--solver", choices=("highs", "scip"), default="highs",
-                   help="highs: exact outer approximation (default); scip: SCIP through cvxpy, for cross-checks")
+    p.add_argument("mission", help=MISSION_HELP)
+    p.add_argument("--json", action="store_true", help="print the plans as one JSON object, with the planned "
+                   "positions and controls")
+    p.add_argument("--solver", choices=tuple(SOLVERS), default=DEFAULT_SOLVER,
+                   help="; ".join(f"{name}{' (default)' if name == DEFAULT_SOLVER else ''}: {what}"
+                                  for name, what in SOLVERS.items()))
     p.add_argument("--time-limit", type=float, default=None, help="seconds per target (default: the mission's)")
     p.add_argument("--terminal", choices=("soft", "hard"), help="soft: P1 as published; hard: every plan must end "
                    "in its goal region, or says the region is unreachable (default: the mission's guidance.terminal)")
@@ -614,7 +714,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     tma = sub.add_parser("tma", help="the estimator library (papers 000-003)").add_subparsers(dest="tma", required=True)
     p = tma.add_parser("reproduce", help="a paper's simulation study; writes DIR/result.json and figures")
-    p.add_argument("name", choices=(*SCENARIOS, *LI2022, "oh2021", "oliva2021"))
+    p.add_argument("name", choices=(*SCENARIOS, *LI2022, "oh2021", "oliva2021"),
+                   help="the study: a scenario of [Huang2021] or [Li2022], or the study of [Oh2021] or [Oliva2021]")
     p.add_argument("--runs", type=int, help="Monte-Carlo runs (default: the paper's; 300 huang2021, 1000 li2022 "
                    "and oh2021, 100 oliva2021)")
     p.add_argument("--seed", type=int, default=2021, help="run r uses SeedSequence(seed).spawn(runs)[r]")
@@ -710,7 +811,7 @@ def _main(argv: list[str] | None) -> int:
         print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("\ninterrupted: finished trials are kept in the output folder; continue with --resume",
+        print("\ninterrupted: finished trials are kept in the output folder; the same command continues them",
               file=sys.stderr)
         return 130
 

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy import ndimage
 
 # Outward normals of an axis-aligned cuboid, in the order +x, -x, +y, -y, +z, -z.
 CUBOID_NORMALS = np.array(
@@ -341,6 +340,42 @@ def free_space(
               & ((cy[:, None] > lo[:, 1]) & (cy[:, None] < hi[:, 1]))[None, :, :])  # (nx, ny, n)
     blocked = inside.any(axis=-1)
     owner = np.where(blocked, np.argmax(inside, axis=-1) if len(lo) else 0, -1)
-    labels, _ = ndimage.label(~blocked)  # default structure: 4-connectivity
-    blocked_labels, _ = ndimage.label(blocked)
-    return FreeSpace(xs, ys, owner, labels, blocked_labels, lo, hi)
+    return FreeSpace(xs, ys, owner, label_grid(~blocked), label_grid(blocked), lo, hi)
+
+
+def label_grid(mask: np.ndarray) -> np.ndarray:
+    """Connected components of the True cells of a 2-D ``mask`` through shared edges
+    (4-neighbours): ``(nx, ny)`` int, 1, 2, ... numbered in the order of each component's
+    first cell in C order, 0 where False -- what ``scipy.ndimage.label(mask)`` returns
+    (tests/test_world.py checks it), in numpy only, so that reading a mission does not
+    import scipy.
+
+    Union-find over the grid's edges, vectorised: each round hooks every root to the
+    smallest root across an edge, then compresses every path; at the end each
+    component's root is its smallest flat index.
+    """
+    mask = np.asarray(mask, dtype=bool)
+    idx = np.arange(mask.size).reshape(mask.shape)
+    pairs = [(idx[:-1][mask[:-1] & mask[1:]], idx[1:][mask[:-1] & mask[1:]]),
+             (idx[:, :-1][mask[:, :-1] & mask[:, 1:]], idx[:, 1:][mask[:, :-1] & mask[:, 1:]])]
+    a = np.concatenate([p[0] for p in pairs])
+    b = np.concatenate([p[1] for p in pairs])
+    parent = idx.ravel().copy()
+    while True:
+        ra, rb = parent[a], parent[b]
+        apart = ra != rb
+        if not apart.any():
+            break
+        ra, rb = ra[apart], rb[apart]
+        np.minimum.at(parent, np.maximum(ra, rb), np.minimum(ra, rb))
+        while True:  # compress: every cell points at its root
+            up = parent[parent]
+            if np.array_equal(up, parent):
+                break
+            parent = up
+        a, b = a[apart], b[apart]
+    roots = parent[mask.ravel()]
+    first = np.unique(roots)  # ascending: the order of each component's first cell
+    out = np.zeros(mask.size, dtype=np.int32)
+    out[mask.ravel()] = np.searchsorted(first, roots) + 1
+    return out.reshape(mask.shape)

@@ -16,10 +16,27 @@ Bearings follow each paper's own convention inside its module ([Huang2021]:
 ``intelligence``, and ``nrpso`` takes bearings from north, clockwise, converting once at
 its edge.
 """
-from .api import CONVENTIONS, PLKF, PLMMSE, ConstrainedMLE, DegenerateUpdateWarning, convert
-from .intelligence import Disc
-from .nrpso import BatchTMA
-from .plmmse import GaussianMixture
+
+import importlib
+
+# name -> module: each is imported on first use (PEP 562), so that the simulator, which
+# takes the filters of .plkf, does not import 000's solvers (scipy.optimize) with them
+_EXPORTS = {
+    "CONVENTIONS": "api", "PLKF": "api", "PLMMSE": "api", "ConstrainedMLE": "api", "DegenerateUpdateWarning": "api",
+    "convert": "api", "Disc": "intelligence", "BatchTMA": "nrpso", "GaussianMixture": "plmmse",
+}
 
 __all__ = ["PLKF", "PLMMSE", "BatchTMA", "ConstrainedMLE", "Disc", "GaussianMixture", "CONVENTIONS", "convert",
            "DegenerateUpdateWarning"]
+
+
+def __getattr__(name: str):
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{_EXPORTS[name]}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *_EXPORTS})

@@ -22,19 +22,28 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
-import cvxpy as cp
 import numpy as np
 
 from ..targets import HORIZONTAL, Dynamics
 from ..world import GROUND_BAND_M, World
-from .compiled import assemble_p1
 from .faces import Reach
-from .model import KN, GuidanceConfig, build_p1, geometry
-from .oa import Budget, OuterApproximation
-from .qp import SolverError
+from .model import KN, GuidanceConfig, geometry
 
-SOLVERS = ("highs", "scip")
+if TYPE_CHECKING:
+    from .oa import Budget
+
+# The solvers (.compiled, .oa, .qp: HiGHS, DAQP, Clarabel, scipy.linalg) are imported by
+# the methods that use them, and cvxpy by the SCIP path only: reading a mission imports
+# this package (for GuidanceConfig) and must stay light (tests/test_layout.py).
+
+SOLVERS = {  # name -> what it is (`uavsim plan --solver`'s help)
+    "highs": "exact, with a certified gap: branch-and-bound over the obstacle faces, each node a QP (DAQP, "
+             "Clarabel as fallback), HiGHS for the outer-approximation master",
+    "scip": "SCIP through cvxpy (pip install 'uavsim[scip]'), for cross-checks",
+}
+DEFAULT_SOLVER = "highs"
 WALL_CAP = 4.0  # a solve stops at this many times its nominal budget, plus one second
 SENSITIVITY_STEP = np.array([1e-3, 1e-3, 1e-4, 1e-4])  # m, m, m/s, m/s (Guidance.sensitivity)
 
@@ -111,9 +120,9 @@ class Guidance:
     so plans are reproducible whatever order targets or trials are solved in.
     """
 
-    def __init__(self, world: World, dynamics: Dynamics, cfg: GuidanceConfig, solver: str = "highs"):
+    def __init__(self, world: World, dynamics: Dynamics, cfg: GuidanceConfig, solver: str = DEFAULT_SOLVER):
         if solver not in SOLVERS:
-            raise ValueError(f"unknown guidance solver {solver!r}; choose from {SOLVERS}")
+            raise ValueError(f"unknown guidance solver {solver!r}; choose from {', '.join(SOLVERS)}")
         self.world, self.dynamics, self.cfg, self.solver = world, dynamics, cfg, solver
         self.geom = geometry(world, dynamics, cfg)
         self._models: dict[int, tuple] = {}
@@ -127,8 +136,13 @@ class Guidance:
             reach = Reach.build(dyn.dt, dyn.friction, dyn.mass, horizon, rho, self.cfg.speed_max,
                                 self.cfg.force_max / KN, g.area_lo, g.area_hi)
             if self.solver == "scip":
+                from .model import build_p1
+
                 oa = build_p1(self.world, dyn, replace(self.cfg, horizon=horizon))
             else:
+                from .compiled import assemble_p1
+                from .oa import OuterApproximation
+
                 c = assemble_p1(g, dyn.dt, dyn.friction, dyn.mass, horizon, rho, self.cfg.force_max / KN)
                 oa = OuterApproximation(c, g, reach, self.cfg.gap)
             self._models[horizon] = (reach, oa)
@@ -137,6 +151,8 @@ class Guidance:
     @staticmethod
     def budget(seconds: float, master: bool) -> Budget:
         """A :class:`Budget` of ``seconds`` nominal QP time (counted in QPs by the solver)."""
+        from .oa import Budget
+
         return Budget(seconds, time.perf_counter() + WALL_CAP * seconds + 1.0, master)
 
     def horizon_at(self, step: int) -> int:
@@ -165,6 +181,8 @@ class Guidance:
         same budget again solves P1 as published and the plan says so
         (:attr:`Plan.unreachable`).
         """
+        from .qp import SolverError
+
         t0 = time.perf_counter()
         horizon = self.horizon_at(step)
         key = None
@@ -310,6 +328,8 @@ class Guidance:
         alike ("optimal_inaccurate"), so only a proved optimum is called "optimal" (gap 0);
         anything else is a time limit with an unknown lower bound.
         """
+        import cvxpy as cp
+
         p.x0.value, p.goal.value = x0, goal
         if p.box is not None:
             p.box.value = np.r_[box[0], box[1]]

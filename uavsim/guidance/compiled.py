@@ -18,25 +18,30 @@ so a re-plan costs a 6-column matvec.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cache
 
-import cvxpy as cp
 import highspy
 import numpy as np
 import scipy.sparse as sp
-from cvxpy.reductions.solvers.qp_solvers.highs_qpif import HIGHS as _HighsQp
 
 from .model import KN, P1, Geometry
 
 INF = highspy.kHighsInf
 
 
-class _MiqpData(_HighsQp):
-    """cvxpy's HiGHS QP interface, allowed to see binaries: only used to compile P1."""
+@cache
+def _miqp_data() -> type:
+    """cvxpy's HiGHS QP interface, allowed to see binaries: only used to compile P1
+    (made on first use, so that the solver's path does not import cvxpy)."""
+    from cvxpy.reductions.solvers.qp_solvers.highs_qpif import HIGHS
 
-    MIP_CAPABLE = True
+    class _MiqpData(HIGHS):
+        MIP_CAPABLE = True
 
-    def name(self):
-        return "UAVSIM_MIQP_DATA"
+        def name(self):
+            return "UAVSIM_MIQP_DATA"
+
+    return _MiqpData
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,8 +87,10 @@ def _cols(pp, var) -> np.ndarray:
 
 def compile_p1(p1: P1) -> Compiled:
     """Compile the cvxpy model once; see :class:`Compiled`."""
+    import cvxpy as cp
+
     p1.x0.value, p1.goal.value = np.zeros(4), np.zeros(2)
-    data, _, _ = p1.problem.get_problem_data(solver=_MiqpData(), canon_backend=cp.SCIPY_CANON_BACKEND)
+    data, _, _ = p1.problem.get_problem_data(solver=_miqp_data()(), canon_backend=cp.SCIPY_CANON_BACKEND)
     pp = data[cp.settings.PARAM_PROB]
     n_eq = data["n_eq"]
 

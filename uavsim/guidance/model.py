@@ -45,13 +45,16 @@ Modelling choices (each stated where the paper is silent):
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-import cvxpy as cp
 import numpy as np
 
 from ..declare import setting
 from ..targets import Dynamics
 from ..world import World, ground_footprints
+
+if TYPE_CHECKING:  # cvxpy is imported by build_p1 only: the fast path (uavsim.guidance.qp) never needs it
+    import cvxpy as cp
 
 KN = 1000.0  # model force unit: 1 kN
 
@@ -181,6 +184,8 @@ def build_p1(world: World, dynamics: Dynamics, cfg: GuidanceConfig, fixed_faces:
     ----------
     [Papaioannou2023] Eq. (7)-(8).
     """
+    import cvxpy as cp
+
     geom = geometry(world, dynamics, cfg)
     t, n = cfg.horizon, len(geom.kept)
     dt, keep_v, gain = dynamics.dt, 1.0 - dynamics.friction, dynamics.dt * KN / dynamics.mass
