@@ -1,8 +1,6 @@
 """The estimator library's reproduction studies, their no-update controls, and the docs' tables.
 
     python benchmarks/tma_studies.py [--runs-002 300] [--runs-001 1000] [--runs-000 100]
-    python benchmarks/tma_studies.py --docs           # rebuild the results pages' tables from the JSON
-    python benchmarks/tma_studies.py --docs --check   # exit 1 if a page's table differs from its JSON
 
 Runs every ``uavsim tma reproduce`` study of papers 002 (four scenarios), 001 (three, at
 the tables' noise rho = 7, and the no-update control at rho = 0.1) and 000 (four scenarios,
@@ -10,19 +8,18 @@ local solver), each beside its control: the same runs with every bearing update 
 001) or the estimate from the intelligence alone (000).  Writes
 ``docs/data/tma-studies.json`` (with the machine).  003's grid is
 ``benchmarks/batch_tma.py --grid`` (``docs/data/oh2021-grid.json``) and its speed
-``benchmarks/batch_tma.py --json`` (``docs/data/oh2021-speed.json``); ``--docs`` builds
-the tables of all four papers' pages in ``docs/results/`` from these three files.
+``benchmarks/batch_tma.py --json`` (``docs/data/oh2021-speed.json``);
+``benchmarks/docs_tables.py`` builds the tables of all four papers' pages from these files.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 import time
 from pathlib import Path
 
-from harness import ROOT, fill, machine, provenance, write
+from harness import ROOT, machine, provenance, write
 
 from uavsim.studies import li2022, oh2021, oliva2021
 from uavsim.studies.huang2021 import reproduce
@@ -30,7 +27,6 @@ from uavsim.studies.huang2021_scenarios import SCENARIOS
 
 TABLE2 = {"bc-plkf": 1.35, "iv-plkf": 2.12, "ub-plkf": 1.0, "vc-plkf": 1.21}  # [Huang2021] Table 2
 DATA = ROOT / "docs" / "data"
-PAGES = ROOT / "docs" / "results"
 
 
 def run_002(runs: int, seed: int) -> dict:
@@ -168,21 +164,6 @@ def tables_003(grid: dict | None, speed: dict | None) -> dict[str, str]:
     return out
 
 
-def _load(path: Path) -> dict | None:
-    return json.loads(path.read_text()) if path.exists() else None
-
-
-def docs(check: bool) -> int:
-    studies = _load(DATA / "tma-studies.json")
-    pages = {"huang2021.md": tables_002(studies), "li2022.md": tables_001(studies),
-             "oliva2021.md": tables_000(studies),
-             "oh2021.md": tables_003(_load(DATA / "oh2021-grid.json"), _load(DATA / "oh2021-speed.json"))}
-    stale = [f"{page}: {name}" for page, tables in pages.items() for name in fill(PAGES / page, tables, check)]
-    for s in stale:
-        print(("stale " if check else "updated ") + s)
-    return 1 if check and stale else 0
-
-
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs-002", type=int, default=300)
@@ -190,16 +171,12 @@ def main() -> None:
     ap.add_argument("--runs-000", type=int, default=100)
     ap.add_argument("--seed", type=int, default=2021)
     ap.add_argument("--out", default=str(DATA / "tma-studies.json"))
-    ap.add_argument("--docs", action="store_true", help="rebuild the results pages' tables from the JSON files")
-    ap.add_argument("--check", action="store_true", help="with --docs: report stale tables, change nothing")
     args = ap.parse_args()
-    if args.docs:
-        sys.exit(docs(args.check))
     started, t0 = machine(), time.perf_counter()
     data = {"huang2021": run_002(args.runs_002, args.seed), "li2022": run_001(args.runs_001, args.seed),
             "oliva2021": run_000(args.runs_000, args.seed)}
     write(Path(args.out), {"settings": vars(args), "wall_seconds": time.perf_counter() - t0, **data}, started)
-    print(f"wrote {args.out}; python benchmarks/tma_studies.py --docs puts its tables in docs/results/",
+    print(f"wrote {args.out}; python benchmarks/docs_tables.py puts its tables in docs/results/",
           file=sys.stderr)
 
 

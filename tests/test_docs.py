@@ -9,10 +9,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_estimator_result_tables_match_their_json():
-    """``benchmarks/tma_studies.py --docs --check`` rebuilds the tables of
-    docs/results/{huang2021,li2022,oh2021,oliva2021}.md from docs/data/*.json and exits 1
-    naming any table that differs (a hand edit, or JSON re-measured without --docs)."""
-    out = subprocess.run([sys.executable, "benchmarks/tma_studies.py", "--docs", "--check"], cwd=ROOT,
+    """``benchmarks/docs_tables.py --check`` rebuilds the tables of docs/results/ from
+    docs/data/*.json and exits 1 naming any table that differs (a hand edit, or JSON
+    re-measured without rebuilding the pages)."""
+    out = subprocess.run([sys.executable, "benchmarks/docs_tables.py", "--check"], cwd=ROOT,
                          capture_output=True, text=True)
     assert out.returncode == 0, out.stdout + out.stderr
 

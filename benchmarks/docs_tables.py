@@ -1,0 +1,62 @@
+"""The documentation's result tables, built from the benchmarks' JSON in docs/data/.
+
+    python benchmarks/docs_tables.py           # rebuild every table between its page's markers
+    python benchmarks/docs_tables.py --check   # exit 1 naming each table that differs from its JSON
+
+A page holds ``<!-- data: NAME -->`` ... ``<!-- /data -->``; the text between is made here
+and nowhere else (``tests/test_docs.py`` runs ``--check``).  The JSON files come from
+``benchmarks/tma_studies.py`` (the estimator studies), ``benchmarks/batch_tma.py`` (003's
+grid and speed) and ``benchmarks/startup.py`` (the command line's start-up).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from harness import ROOT, fill, parser, provenance, run
+from tma_studies import tables_000, tables_001, tables_002, tables_003
+
+DATA, DOCS = ROOT / "docs" / "data", ROOT / "docs"
+
+
+def _load(path: Path) -> dict | None:
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def tables_startup(data: dict | None) -> dict[str, str]:
+    """Median wall seconds of each start-up case, now and at the baseline revision."""
+    if data is None:
+        return {}
+    cur, base = data["current"]["timings"], (data.get("baseline") or {}).get("timings", {})
+    head = ["case", "median s", "range s"] + ([f"at {data['baseline']['commit'][:8]}"] if base else [])
+    rows = [[f"`uavsim {' '.join(v['args'])}`", f"{v['median_s']:.3f}", f"{v['min_s']:.3f}-{v['max_s']:.3f}"]
+            + ([f"{base[k]['median_s']:.3f}"] if k in base else []) for k, v in cur.items()]
+    table = "\n".join(["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+                       + ["| " + " | ".join(r) + " |" for r in rows])
+    return {"startup": f"{table}\n\nBudget {data['budget_s']} s per case. " + provenance(data)}
+
+
+def pages() -> dict[Path, dict[str, str]]:
+    studies = _load(DATA / "tma-studies.json")
+    return {DOCS / "results" / "huang2021.md": tables_002(studies), DOCS / "results" / "li2022.md": tables_001(studies),
+            DOCS / "results" / "oliva2021.md": tables_000(studies),
+            DOCS / "results" / "oh2021.md": tables_003(_load(DATA / "oh2021-grid.json"),
+                                                       _load(DATA / "oh2021-speed.json")),
+            DOCS / "results" / "speed.md": tables_startup(_load(DATA / "startup.json"))}
+
+
+def build(args) -> None:
+    stale = [f"{page.relative_to(ROOT)}: {name}" for page, tables in pages().items()
+             for name in fill(page, tables, args.check)]
+    for s in stale:
+        print(("stale " if args.check else "updated ") + s)
+    if args.check and stale:
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    ap = parser(__doc__)
+    ap.add_argument("--check", action="store_true", help="report stale tables, change nothing")
+    run(build, ap)
