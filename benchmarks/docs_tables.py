@@ -6,7 +6,8 @@
 A page holds ``<!-- data: NAME -->`` ... ``<!-- /data -->``; the text between is made here
 and nowhere else (``tests/test_docs.py`` runs ``--check``).  The JSON files come from
 ``benchmarks/tma_studies.py`` (the estimator studies), ``benchmarks/batch_tma.py`` (003's
-grid and speed) and ``benchmarks/startup.py`` (the command line's start-up).
+grid and speed), ``benchmarks/startup.py`` (the command line's start-up) and
+``benchmarks/findings.py --json docs/data/findings.json`` (the paper's findings).
 """
 
 from __future__ import annotations
@@ -33,9 +34,30 @@ def tables_startup(data: dict | None) -> dict[str, str]:
     head = ["case", "median s", "range s"] + ([f"at {data['baseline']['commit'][:8]}"] if base else [])
     rows = [[f"`uavsim {' '.join(v['args'])}`", f"{v['median_s']:.3f}", f"{v['min_s']:.3f}-{v['max_s']:.3f}"]
             + ([f"{base[k]['median_s']:.3f}"] if k in base else []) for k, v in cur.items()]
-    table = "\n".join(["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-                       + ["| " + " | ".join(r) + " |" for r in rows])
-    return {"startup": f"{table}\n\nBudget {data['budget_s']} s per case. " + provenance(data)}
+    return {"startup": f"{_md(head, rows)}\n\nBudget {data['budget_s']} s per case. " + provenance(data)}
+
+
+def _md(head: list[str], rows: list[list[str]]) -> str:
+    return "\n".join(["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+                     + ["| " + " | ".join(r) + " |" for r in rows])
+
+
+def tables_findings(data: dict | None) -> dict[str, str]:
+    """[Papaioannou2023]'s findings re-measured (``benchmarks/findings.py --json``)."""
+    if data is None:
+        return {}
+    f = data["figures"]
+    rows = [[name, c["mission"].removesuffix(".toml"), f"{c['rmse_m']:.2f}", f"{c['ratio']:.3f}",
+             f"{c['ratio_second_half']:.3f}", f"{c['nees_inside']:.0%}"] for name, c in f["configs"].items()]
+    configs = _md(["configuration", "mission", "RMSE (m)", "/ no information", "second half", "NEES in band"], rows)
+    k = str(f["trials"])
+    rows = [[f"{o['a']} < {o['b']}", f"{o['rmse_a_m']:.2f} vs {o['rmse_b_m']:.2f}", f"{o['paired_t']:.2f}",
+             f"{o['holds_in_trials']:.0%}", f"{o['holds_in_resamples']['6']:.0%}", f"{o['holds_in_resamples'][k]:.1%}"]
+            for o in f["orders"]]
+    orders = _md(["ordering", "RMSE (m)", "paired t", "holds in trials", "in 6-trial resamples",
+                  f"in {k}-trial resamples"], rows)
+    note = f"{f['trials']} trials a configuration. " + provenance(data)
+    return {"findings-configs": configs + "\n\n" + note, "findings-orders": orders + "\n\n" + note}
 
 
 def pages() -> dict[Path, dict[str, str]]:
@@ -44,7 +66,8 @@ def pages() -> dict[Path, dict[str, str]]:
             DOCS / "results" / "oliva2021.md": tables_000(studies),
             DOCS / "results" / "oh2021.md": tables_003(_load(DATA / "oh2021-grid.json"),
                                                        _load(DATA / "oh2021-speed.json")),
-            DOCS / "results" / "speed.md": tables_startup(_load(DATA / "startup.json"))}
+            DOCS / "results" / "speed.md": tables_startup(_load(DATA / "startup.json")),
+            DOCS / "results" / "papaioannou2023.md": tables_findings(_load(DATA / "findings.json"))}
 
 
 def build(args) -> None:

@@ -53,9 +53,9 @@ def main() -> None:
     run(measure, ap)
 
 
-def measure(args) -> None:
-    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
-    err2, half = {}, None
+def measure(args) -> dict:
+    """The benchmark proper; returns its figures (``harness.run`` writes them with ``--json``)."""
+    err2, half, figures = {}, None, {"trials": args.trials, "configs": {}, "orders": []}
     print(f"{'configuration':20s} {'mission':24s}{'RMSE m':>8s}{'/ no info':>10s}{'2nd half':>9s}"
           f"{'NEES in band':>13s}{'mean NEES':>10s}")
     for name, (mission, planner) in CONFIGS.items():
@@ -70,17 +70,27 @@ def measure(args) -> None:
         ratio_half = rmse(err2[name][:, half:]) / rmse(err2["baseline"][:, half:])
         print(f"{name:20s} {mission:24s}{rmse(err2[name]):8.2f}{ratio:10.3f}{ratio_half:9.3f}"
               f"{nees['inside']:13.0%}{np.mean(nees['mean']):10.2f}", flush=True)
+        figures["configs"][name] = {"mission": mission, "planner": planner, "rmse_m": rmse(err2[name]), "ratio": ratio,
+                                    "ratio_second_half": ratio_half, "nees_inside": float(nees["inside"]),
+                                    "nees_mean": float(np.mean(nees["mean"]))}
 
     rng = np.random.default_rng(0)
     print(f"\n{'ordering':34s}{'RMSE (m)':>17s}{'paired t':>10s}{'trials':>8s}   order holds in K-trial resamples")
     for a, b in ORDERS:
         mse_a, mse_b = err2[a].mean(axis=(1, 2)), err2[b].mean(axis=(1, 2))
         holds = []
-        for k in (3, 6, 10, 20):
+        shares = {}
+        for k in sorted({3, 6, 10, 20, args.trials}):
             idx = rng.choice(args.trials, (2000, k))
-            holds.append(f"K={k}: {np.mean([rmse(err2[a][i]) < rmse(err2[b][i]) for i in idx]):.1%}")
+            shares[k] = float(np.mean([rmse(err2[a][i]) < rmse(err2[b][i]) for i in idx]))
+        holds = [f"K={k}: {v:.1%}" for k, v in shares.items()]
         print(f"{a + ' < ' + b:34s}{rmse(err2[a]):8.2f} {rmse(err2[b]):8.2f}{paired_t(mse_a, mse_b):10.2f}"
               f"{np.mean(mse_a < mse_b):8.0%}   {', '.join(holds)}")
+        figures["orders"].append({"a": a, "b": b, "rmse_a_m": rmse(err2[a]), "rmse_b_m": rmse(err2[b]),
+                                  "paired_t": float(paired_t(mse_a, mse_b)),
+                                  "holds_in_trials": float(np.mean(mse_a < mse_b)),
+                                  "holds_in_resamples": {str(k): v for k, v in shares.items()}})
+    return figures
 
 
 if __name__ == "__main__":
