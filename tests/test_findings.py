@@ -5,10 +5,12 @@ beside.
 Each test asserts an ordering of time-averaged RMSEs only where it holds in at least 99%
 of bootstrap resamples of 6 trials (the fast tests, the study's first six trials) or in
 at least 97.5% of resamples of 100 trials (the ``slow`` tests, the paper's 100 trials).
-The orderings left out (the circle against the square and the pentagon, the optimized
-UAV against the circle) are within noise.  ``python benchmarks/findings.py --trials 100``
-prints the figures behind these choices: RMSEs, paired t, the shares of trials and of
-resamples in which each ordering holds.
+The orderings left out are within noise by that measure: the circle against the other
+manoeuvres (59-94% of 100-trial resamples), the optimized UAV against the circle, the
+zig-zag and the pentagon (94-97%).  ``python benchmarks/findings.py --trials 100 --json
+docs/data/findings.json`` records the figures behind these choices (RMSEs, paired t, the
+shares of trials and of resamples in which each ordering holds); the docs' findings page
+is built from that file.
 """
 
 import os
@@ -78,22 +80,23 @@ def hundred(tmp_path_factory):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("other", ["zigzag", "baseline"])
-def test_the_circle_beats_the_zigzag_and_no_information(other, hundred):
-    """Fig. 3e with the paper's 100 trials."""
-    mission = "paper.toml" if other == "baseline" else "paper_constrained.toml"
-    assert avg(hundred("paper_constrained.toml", "circle")) < avg(hundred(mission, other))
+def test_the_circle_beats_no_information(hundred):
+    """Fig. 3e with the paper's 100 trials: 20.80 against 25.63 m, in 100% of 100-trial
+    resamples.  The circle against the zig-zag (20.80 against 21.56 m) holds in only 94%,
+    so the paper's ranking of the manoeuvres is not asserted."""
+    assert avg(hundred("paper_constrained.toml", "circle")) < avg(hundred("paper.toml", "baseline"))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("manoeuvre", ["zigzag", "square", "pentagon"])
-def test_optimized_beats_the_manoeuvres_on_time_averaged_rmse(manoeuvre, hundred):
-    """Fig. 3e with the paper's 100 trials: on the time-averaged RMSE, not on the paired
-    mean squared errors (``benchmarks/findings.py``: paired t below 1)."""
-    assert avg(hundred("paper.toml", "optimized")) < avg(hundred("paper_constrained.toml", manoeuvre))
+def test_optimized_beats_the_square_on_time_averaged_rmse(hundred):
+    """Fig. 3e with the paper's 100 trials: 18.26 against 22.47 m, in 98.8% of 100-trial
+    resamples, on the time-averaged RMSE, not on the paired mean squared errors (paired t
+    0.95).  Against the circle, the zig-zag and the pentagon it holds in 94-97% only."""
+    assert avg(hundred("paper.toml", "optimized")) < avg(hundred("paper_constrained.toml", "square"))
 
 
 @pytest.mark.slow
 def test_clutter_rate_8_is_worse_than_1(hundred):
-    """Fig. 2c with the paper's 100 trials: Lambda = 8 above Lambda = 1 (by about 4%)."""
+    """Fig. 2c with the paper's 100 trials: Lambda = 8 above Lambda = 1 (18.96 against
+    18.26 m, about 4%; 98.4% of 100-trial resamples)."""
     assert avg(hundred("paper.toml", "optimized")) < avg(hundred("paper_clutter8.toml", "optimized"))
