@@ -1,7 +1,7 @@
 """uavsim against Stone Soup on the same problems, interleaved in one process.
 
     pip install -e ".[bench]"    # Stone Soup
-    OPENBLAS_NUM_THREADS=1 taskset -c 0 python benchmarks/vs_stonesoup.py [--steps 200] [--decisions 5]
+    taskset -c 0 python benchmarks/vs_stonesoup.py [--steps 200] [--decisions 5] [--json docs/data/vs-stonesoup.json]
 
 1. **Filter step**, 1 target, N = 5000, the paper's sensor (Lambda = 1, p_D = 0.95,
    sigma = 1 deg), a target moving by Eq. (1) seen from a moving observer:
@@ -257,7 +257,7 @@ def check_same_weights(mission, ours, states, updaters, scan, observer):
         assert err < 1e-8, kind
 
 
-def filter_benchmark(steps: int, n: int = 5000) -> None:
+def filter_benchmark(steps: int, n: int = 5000) -> dict:
     mission, ours, states, predictors, updaters = filter_setup(n)
     dyn, sensor = mission.dynamics, mission.sensor
     world, rng = np.random.default_rng(3), np.random.default_rng(2)
@@ -292,10 +292,13 @@ def filter_benchmark(steps: int, n: int = 5000) -> None:
     print(f"  final position estimates: uavsim {np.round(ours.moments()[0][0, :2], 1)}, "
           f"Stone Soup {np.round(final['plain'], 1)} (PF), {np.round(final['bernoulli'], 1)} (Bernoulli); "
           f"truth {np.round(truth[0, :2], 1)}")
+    return {"particles": n, "steps": steps,
+            "median_s": {k: float(np.median(v)) for k, v in times.items()},
+            "min_s": {k: float(np.min(v)) for k, v in times.items()}}
 
 
 # --------------------------------------------------------------------------- decision
-def decision_benchmark(repeats: int, n: int = 5000) -> None:
+def decision_benchmark(repeats: int, n: int = 5000) -> dict:
     mission = load_mission(ROOT / "missions" / "paper.toml")
     sigma = mission.sensor.sigma
     rng = np.random.default_rng(5)
@@ -334,6 +337,9 @@ def decision_benchmark(repeats: int, n: int = 5000) -> None:
           f"(min {1e3 * np.min(theirs_t):7.2f})  {np.median(theirs_t) / np.median(ours_t):5.1f}x uavsim")
     print(f"  check: same move chosen: {same} (uavsim move {best})")
     assert same, "Stone Soup chose another move"
+    return {"moves": len(cands), "targets": len(means0), "particles": n, "repeats": repeats, "same_move": bool(same),
+            "median_s": {"uavsim": float(np.median(ours_t)), "stonesoup": float(np.median(theirs_t))},
+            "min_s": {"uavsim": float(np.min(ours_t)), "stonesoup": float(np.min(theirs_t))}}
 
 
 def main() -> None:
@@ -343,11 +349,11 @@ def main() -> None:
     run(measure, ap)
 
 
-def measure(args) -> None:
-    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
+def measure(args) -> dict:
+    """The benchmark proper; returns its figures (``harness.run`` writes them with ``--json``)."""
     print(f"Stone Soup {stonesoup.__version__}; medians over interleaved calls")
-    filter_benchmark(args.steps)
-    decision_benchmark(args.decisions)
+    return {"stonesoup": stonesoup.__version__, "filter": filter_benchmark(args.steps),
+            "decision": decision_benchmark(args.decisions)}
 
 
 if __name__ == "__main__":
