@@ -328,7 +328,8 @@ def decision_benchmark(repeats: int, n: int = 5000) -> dict:
         t2 = time.perf_counter()
         ours_t.append(t1 - t0)
         theirs_t.append(t2 - t1)
-    chosen = next(iter(config.values()))[0].target_value
+    # the configuration maps every actionable to its actions: the platform's move, and none for the sensor
+    chosen = next(a for actions in config.values() for a in actions).target_value
     same = np.allclose(np.asarray(chosen, float).ravel()[:2], cands[best, :2])
     print(f"\nEq. (13) decision, {len(cands)} moves x {len(means0)} targets x {n} particles, {repeats} repeats")
     print(f"  uavsim decide(pseudo_traces)       median {1e3 * np.median(ours_t):8.2f} ms  "
