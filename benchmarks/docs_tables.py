@@ -7,7 +7,8 @@ A page holds ``<!-- data: NAME -->`` ... ``<!-- /data -->``; the text between is
 and nowhere else (``tests/test_docs.py`` runs ``--check``).  The JSON files come from
 ``benchmarks/tma_studies.py`` (the estimator studies), ``benchmarks/batch_tma.py`` (003's
 grid and speed), ``benchmarks/startup.py`` (the command line's start-up) and
-``benchmarks/findings.py --json docs/data/findings.json`` (the paper's findings).
+``benchmarks/findings.py --json docs/data/findings.json`` (the paper's findings) and
+``benchmarks/vs_stonesoup.py --json docs/data/vs-stonesoup.json`` (against Stone Soup).
 """
 
 from __future__ import annotations
@@ -60,6 +61,25 @@ def tables_findings(data: dict | None) -> dict[str, str]:
     return {"findings-configs": configs + "\n\n" + note, "findings-orders": orders + "\n\n" + note}
 
 
+def tables_stonesoup(data: dict | None) -> dict[str, str]:
+    """uavsim beside Stone Soup (``benchmarks/vs_stonesoup.py --json``)."""
+    if data is None:
+        return {}
+    f, d = data["figures"]["filter"], data["figures"]["decision"]
+    ms = lambda fig, k: f"{1e3 * fig['median_s'][k]:.2f} ({1e3 * fig['min_s'][k]:.2f})"  # noqa: E731
+    base, dec = f["median_s"]["uavsim"], d["median_s"]["uavsim"]
+    rows = [[f"filter step, 1 target x {f['particles']}", ms(f, "uavsim"), "particle filter", ms(f, "plain"),
+             f"{f['median_s']['plain'] / base:.1f}x"],
+            [f"filter step, 1 target x {f['particles']}", ms(f, "uavsim"), "Bernoulli particle filter",
+             ms(f, "bernoulli"), f"{f['median_s']['bernoulli'] / base:.1f}x"],
+            [f"decision, {d['moves']} moves x {d['targets']} targets x {d['particles']}", ms(d, "uavsim"),
+             "BruteForceSensorManager", ms(d, "stonesoup"), f"{d['median_s']['stonesoup'] / dec:.0f}x"]]
+    same = "the same move" if d["same_move"] else "another move"
+    return {"stonesoup": _md(["task", "uavsim ms, median (min)", f"Stone Soup {data['figures']['stonesoup']}",
+                              "ms, median (min)", "Stone Soup / uavsim"], rows)
+            + f"\n\n{f['steps']} filter steps, {d['repeats']} decisions ({same} chosen). " + provenance(data)}
+
+
 def pages() -> dict[Path, dict[str, str]]:
     studies = _load(DATA / "tma-studies.json")
     return {DOCS / "results" / "huang2021.md": tables_002(studies), DOCS / "results" / "li2022.md": tables_001(studies),
@@ -67,7 +87,8 @@ def pages() -> dict[Path, dict[str, str]]:
             DOCS / "results" / "oh2021.md": tables_003(_load(DATA / "oh2021-grid.json"),
                                                        _load(DATA / "oh2021-speed.json")),
             DOCS / "results" / "speed.md": tables_startup(_load(DATA / "startup.json")),
-            DOCS / "results" / "papaioannou2023.md": tables_findings(_load(DATA / "findings.json"))}
+            DOCS / "results" / "papaioannou2023.md": tables_findings(_load(DATA / "findings.json")),
+            DOCS / "results" / "stonesoup.md": tables_stonesoup(_load(DATA / "vs-stonesoup.json"))}
 
 
 def build(args) -> None:
