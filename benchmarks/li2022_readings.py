@@ -4,7 +4,7 @@
 
 For our reading (``li2022.Reading()``) and each alternative, one line per scenario: the
 ratio ours / published of RMSEpos_avg and RMSEvel_avg for the four filters and their
-first constrained rows.  The README's "where we differ" section quotes these figures.
+first constrained rows.  docs/results/li2022.md's "where we differ" section quotes these figures.
 """
 
 from __future__ import annotations

@@ -15,7 +15,7 @@ trials lookahead wins and of 2000 bootstrap resamples in which its RMSE is lower
 PCRLB along each policy's paths (planned truth only), and the policy's median seconds
 per step.  Campaign folders are kept (``--out``), so a second call only adds trials.
 
-``--plan-clusters 1`` (the default; the table in the README) moves every particle by the
+``--plan-clusters 1`` (the default; the table in docs/results/lookahead.md) moves every particle by the
 plan from the mean in every setting, the generated worlds included, as when the table was
 measured; ``2`` moves each half of the cloud by its own plan (``[filter] plan_clusters``,
 a generated mission's default).  ``--only paper,g12`` runs some settings.

@@ -13,7 +13,7 @@ Each step t -> t+1:
    velocity as much as on its position, and on which side of an obstacle it lies, so one
    plan from the mean moves the whole cloud by a force that fits neither part of a
    spread or split cloud (on 50 generated worlds, ``benchmarks/worlds.py``, two plans
-   halved the targets lost against a filter handed the truth's forces; README).  A half
+   halved the targets lost against a filter handed the truth's forces; docs/methods/filter.md).  A half
    holding less than :data:`MIN_HALF` of the weight moves by the mean's plan;
 4. **UAV**: the policy moves (:mod:`.uav`: Eq. 12-13 grid moves, a manoeuvre, fixed
    sensors, no sensor), or takes the move given to :meth:`Simulation.step`;

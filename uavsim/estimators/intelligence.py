@@ -286,7 +286,7 @@ def slsqp(data: BearingData, theta: np.ndarray, constraints: TrackConstraints,
     for 000's study).  Why not a batched augmented Lagrangian: tried first, its
     Levenberg-Marquardt inner problems stall where the active constraint switches between
     sample times along a curved circle, and stopped up to 1.6 standard deviations short of
-    the optimum SLSQP finds (5 of 8 runs of the APF geometry; README, oliva2021).
+    the optimum SLSQP finds (5 of 8 runs of the APF geometry; docs/results/oliva2021.md).
     ``converged``: SLSQP reported success and the violation is within ``feas_tol``."""
     r, p, n = theta.shape
     out = {k: np.zeros((r, p)) for k in ("nll", "violation", "converged", "n_iter")}
@@ -367,7 +367,7 @@ def constrained_crlb(bound, gradients, values, tol: float = 0.0, rcond: float = 
       ``S^T F`` (columns scaled to unit norm, so units and counts do not matter) whose
       singular values exceed ``rcond`` times the largest.  Whitening makes the rank
       decision independent of the parameters' units; ``rcond`` decides how many
-      directions count and the bound depends on it steeply (README, oliva2021): an
+      directions count and the bound depends on it steeply (docs/results/oliva2021.md): an
       equality-constrained bound is not continuous in the constraints.  The default 1e-9
       sits above the rounding of the gradients (relative 1e-13 and the cancellation in
       ``p - c``) and below the smallest direction we regard as real.
@@ -406,7 +406,7 @@ def apf_force(intelligence: Intelligence, weighting: str = "area", at=(0.0, 0.0)
     ``weighting``: ``"area"`` as the text says (``alpha_i = 1 / area(X_i)``,
     ``beta_i = area(Y_i)``) or ``"caption"`` as Fig. 1's caption (``alpha_i = area(X_i)``,
     ``beta_i = 1 / area(Y_i)``).  Neither gives the published 0.749 rad for Table 1's sets
-    (README, oliva2021; :func:`heading` converts).
+    (docs/results/oliva2021.md; :func:`heading` converts).
 
     References: [Oliva2021] Sec. 2.7."""
     if weighting not in ("area", "caption"):

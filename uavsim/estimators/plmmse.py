@@ -120,7 +120,7 @@ def pl_mmse_gain(x, p, beta, s, noise: GaussianMixture, pos=POS, r_scale: float 
     """Table 1 step 4 (re-derived, module docstring) for predictions ``x (R, n)``,
     ``P (R, n, n)``: returns ``K1 (R, n)``, ``K2 (R,)``, ``z (R,)``, ``H (R, n)``, ``H1 (R, n)``.
     ``r_scale`` multiplies ``R_k``: 1 is Eq. (19) as derived; other values are for
-    sensitivity studies only (the README's "R x 2")."""
+    sensitivity studies only (docs/results/li2022.md, doubling R_k)."""
     beta, s, _ = plkf._broadcast(x, beta, s, 0.0)
     n = x.shape[1]
     z, h = pseudo_measurement(beta, s, n, pos)

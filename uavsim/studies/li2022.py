@@ -27,7 +27,7 @@ Readings (where the paper is ambiguous, what we chose):
 * The constrained estimate is an output; the filter runs on from ``x^`` (Table 2/3 step 6).
 
 :class:`Reading` holds these choices; its alternatives exist to measure how far each one
-moves the tables (``benchmarks/li2022_readings.py``, the README).
+moves the tables (``benchmarks/li2022_readings.py``, docs/results/li2022.md).
 
 Metrics (Eq. 64-71) on the output estimate, position (1:2) and velocity (3:4):
 ``RMSE_k`` and ``BNorm_k = |mean over runs of the error|`` per scan; their time averages

@@ -14,7 +14,7 @@ Ownship (Eq. 18-19), from the origin: ``o(kT) = Rot(gamma) [vbar kT, A sin(omega
 argument ``omega x_o(kT)`` refers to the point being defined; reading it as the distance
 along the track reproduces the published CRLB, 7.771e5 against 7.713e5, where ``omega t``
 gives 5e15).  ``gamma = 0`` (no APF) or the published APF direction 0.749 rad
-(:func:`uavsim.estimators.intelligence.apf_force` does not give it from Table 1: README).
+(:func:`uavsim.estimators.intelligence.apf_force` does not give it from Table 1: docs/results/oliva2021.md).
 
 The four scenarios (Sec. 3): no information (gamma 0, unconstrained MLE), unconstrained
 APF (0.749, unconstrained), constrained without APF (0, constrained) and the proposed

@@ -8,7 +8,7 @@ Eq. (3) (area, operating region, obstacles, segments) of least summed trace afte
 scan.  It flies the best first move and decides again the next step (receding horizon).
 The myopic rule's own first move is among those scored, so the chosen move's score is
 at most the score of flying the myopic rule throughout (in the model below; the measured
-RMSE need not follow, see the README's lookahead table).
+RMSE need not follow, see docs/results/lookahead.md).
 
 **Score.**  Each target's predicted belief is summarised by its moments on
 ``[x, y, vx, vy]`` (:data:`uavsim.targets.HORIZONTAL`).  Along a path the covariance
