@@ -82,7 +82,7 @@ def single(sigma_deg: float, runs: int) -> dict:
     for m in oh2021.METHODS:
         total = 0.0
         for g in gens:
-            z = np.angle(np.exp(1j * (oh2021.bearings(2, prob_t) + sig * g[0].standard_normal(600))))
+            z = nrpso.wrap(oh2021.bearings(2, prob_t) + sig * g[0].standard_normal(600))
             # 003's bearings are clockwise from north (Eq. 3), the BatchTMA default
             est = nrpso.BatchTMA(sigma=sig, method=m, rng=g[1])
             total += _cpu(est.fit, prob_t, z, oh2021.observer(prob_t))

@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 from harness import ROOT, fill, parser, provenance, run
+from harness import markdown_table as md
 from tma_studies import tables_000, tables_001, tables_002, tables_003
 
 DATA, DOCS = ROOT / "docs" / "data", ROOT / "docs"
@@ -35,12 +36,7 @@ def tables_startup(data: dict | None) -> dict[str, str]:
     head = ["case", "median s", "range s"] + ([f"at {data['baseline']['commit'][:8]}"] if base else [])
     rows = [[f"`uavsim {' '.join(v['args'])}`", f"{v['median_s']:.3f}", f"{v['min_s']:.3f}-{v['max_s']:.3f}"]
             + ([f"{base[k]['median_s']:.3f}"] if k in base else []) for k, v in cur.items()]
-    return {"startup": f"{_md(head, rows)}\n\nBudget {data['budget_s']} s per case. " + provenance(data)}
-
-
-def _md(head: list[str], rows: list[list[str]]) -> str:
-    return "\n".join(["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-                     + ["| " + " | ".join(r) + " |" for r in rows])
+    return {"startup": f"{md(head, rows)}\n\nBudget {data['budget_s']} s per case. " + provenance(data)}
 
 
 def tables_findings(data: dict | None) -> dict[str, str]:
@@ -50,12 +46,12 @@ def tables_findings(data: dict | None) -> dict[str, str]:
     f = data["figures"]
     rows = [[name, c["mission"].removesuffix(".toml"), f"{c['rmse_m']:.2f}", f"{c['ratio']:.3f}",
              f"{c['ratio_second_half']:.3f}", f"{c['nees_inside']:.0%}"] for name, c in f["configs"].items()]
-    configs = _md(["configuration", "mission", "RMSE (m)", "/ no information", "second half", "NEES in band"], rows)
+    configs = md(["configuration", "mission", "RMSE (m)", "/ no information", "second half", "NEES in band"], rows)
     k = str(f["trials"])
     rows = [[f"{o['a']} < {o['b']}", f"{o['rmse_a_m']:.2f} vs {o['rmse_b_m']:.2f}", f"{o['paired_t']:.2f}",
              f"{o['holds_in_trials']:.0%}", f"{o['holds_in_resamples']['6']:.0%}", f"{o['holds_in_resamples'][k]:.1%}"]
             for o in f["orders"]]
-    orders = _md(["ordering", "RMSE (m)", "paired t", "holds in trials", "in 6-trial resamples",
+    orders = md(["ordering", "RMSE (m)", "paired t", "holds in trials", "in 6-trial resamples",
                   f"in {k}-trial resamples"], rows)
     note = f"{f['trials']} trials a configuration. " + provenance(data)
     return {"findings-configs": configs + "\n\n" + note, "findings-orders": orders + "\n\n" + note}
@@ -75,7 +71,7 @@ def tables_stonesoup(data: dict | None) -> dict[str, str]:
             [f"decision, {d['moves']} moves x {d['targets']} targets x {d['particles']}", ms(d, "uavsim"),
              "BruteForceSensorManager", ms(d, "stonesoup"), f"{d['median_s']['stonesoup'] / dec:.0f}x"]]
     same = "the same move" if d["same_move"] else "another move"
-    return {"stonesoup": _md(["task", "uavsim ms, median (min)", f"Stone Soup {data['figures']['stonesoup']}",
+    return {"stonesoup": md(["task", "uavsim ms, median (min)", f"Stone Soup {data['figures']['stonesoup']}",
                               "ms, median (min)", "Stone Soup / uavsim"], rows)
             + f"\n\n{f['steps']} filter steps, {d['repeats']} decisions ({same} chosen). " + provenance(data)}
 

@@ -38,7 +38,7 @@ from pathlib import Path
 import clarabel
 import numpy as np
 import scipy.sparse as sp
-from harness import machine, write
+from harness import machine, markdown_table, write
 
 from uavsim.config import load_mission
 from uavsim.guidance import Guidance
@@ -217,13 +217,10 @@ def city(seed: int, k: int, n: int, folder: Path) -> Path:
 
 
 def table(rows: list[dict]) -> str:
-    lines = ["| mission | target | optimum (m^2) | obstacle-free QP / optimum | GCS / optimum | GCS seconds | edges |",
-             "|---|---|---|---|---|---|---|"]
-    for r in rows:
-        opt = max(r["optimum"], 1.0)
-        lines.append(f"| {r['mission']} | {r['target']} | {r['optimum']:.1f} | {r['relaxation'] / opt:.3f} | "
-                     f"{r['gcs'] / opt:.3f} | {r['seconds']:.2f} | {r['edges']} |")
-    return "\n".join(lines)
+    head = ["mission", "target", "optimum (m^2)", "obstacle-free QP / optimum", "GCS / optimum", "GCS seconds", "edges"]
+    cells = [[r["mission"], r["target"], f"{r['optimum']:.1f}", f"{r['relaxation'] / max(r['optimum'], 1.0):.3f}",
+              f"{r['gcs'] / max(r['optimum'], 1.0):.3f}", f"{r['seconds']:.2f}", r["edges"]] for r in rows]
+    return markdown_table(head, cells)
 
 
 def main() -> None:

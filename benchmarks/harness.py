@@ -44,17 +44,14 @@ def _cpu_model() -> str:
     return platform.processor() or platform.machine()
 
 
-_BLAS_LIMIT = [None]  # the --blas-threads of the running benchmark, if it used run()
-
-
-def machine() -> dict:
+def machine(blas_threads: int | None = None) -> dict:
     """The run's provenance: commit, tree state, CPU, cores, BLAS threads, load, time."""
     blas = [{k: p.get(k) for k in ("internal_api", "num_threads", "version")} for p in threadpool_info()
             if p.get("user_api") == "blas"]
     return {"commit": _git("rev-parse", "HEAD"), "dirty": bool(_git("status", "--porcelain", "--untracked-files=no")),
             "cpu": _cpu_model(), "cores": os.cpu_count(), "blas": blas,
             "trial_blas_threads": 1,  # every trial runs single-threaded (uavsim.campaign.one_blas_thread)
-            "blas_threads_limit": _BLAS_LIMIT[0],
+            "blas_threads_limit": blas_threads,  # a benchmark's --blas-threads, when it ran through run()
             "python": platform.python_version(), "load_average": list(os.getloadavg()),
             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
 
@@ -97,14 +94,19 @@ def run(body, ap: argparse.ArgumentParser) -> None:
     """Parse ``ap``, run ``body(args) -> dict | None`` (its figures) with ``--blas-threads``
     BLAS threads, echo and keep what it prints, and with ``--json`` write it all."""
     args = ap.parse_args()
-    _BLAS_LIMIT[0] = args.blas_threads
-    started, t0, tee = machine(), time.perf_counter(), _Tee(sys.stdout)
+    started, t0, tee = machine(args.blas_threads), time.perf_counter(), _Tee(sys.stdout)
     with threadpool_limits(args.blas_threads), contextlib.redirect_stdout(tee):
         figures = body(args)
     if args.json:
         write(Path(args.json), {"settings": vars(args), "wall_seconds": time.perf_counter() - t0,
                                 "figures": figures or {}, "printed": "".join(tee.parts)}, started)
         print(f"wrote {args.json}", file=sys.stderr)
+
+
+def markdown_table(head, rows) -> str:
+    """A Markdown table: the header ``head`` and one line per row (cells as text)."""
+    return "\n".join(["| " + " | ".join(map(str, head)) + " |", "|" + "---|" * len(head)]
+                     + ["| " + " | ".join(map(str, r)) + " |" for r in rows])
 
 
 def provenance(data: dict) -> str:

@@ -40,7 +40,7 @@ from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
-from harness import machine, write
+from harness import machine, markdown_table, write
 
 from uavsim.campaign import one_blas_thread, run_trial, trial_seeds
 from uavsim.config import load_mission
@@ -200,9 +200,10 @@ def table(summary: list[dict]) -> str:
     def share(x):
         return "-" if x is None else f"{100 * x:.0f}%"
 
-    head = ("| K | N | setting | first s median / max | first certified | first gap p90 | in goal | obj / best max "
-            "| re-plans | certified | re-plan ms p50 / p99 | step s p50 / mean / max | coll. | RMSE / no-info |")
-    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    head = ["K", "N", "setting", "first s median / max", "first certified", "first gap p90", "in goal",
+            "obj / best max", "re-plans", "certified", "re-plan ms p50 / p99", "step s p50 / mean / max", "coll.",
+            "RMSE / no-info"]
+    rows = []
     for r in summary:
         s = r["summary"]
         rmse = "-" if s["rmse_mean"] is None else (f"{s['rmse_mean']:.1f} / {s['rmse_baseline_mean']:.1f} m "
@@ -214,8 +215,8 @@ def table(summary: list[dict]) -> str:
                  f"{q(s['replan_seconds'], 'median', 1e3, '{:.1f}')} / {q(s['replan_seconds'], 'p99', 1e3, '{:.0f}')}",
                  f"{q(s['step_seconds'], 'median')} / {q(s['step_seconds'], 'mean')} / {q(s['step_seconds'], 'max')}",
                  s["collisions"], rmse]
-        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
-    return "\n".join(lines)
+        rows.append(cells)
+    return markdown_table(head, rows)
 
 
 def main() -> None:

@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 from harness import ROOT, machine, provenance, write
+from harness import markdown_table as md
 
 from uavsim.studies import li2022, oh2021, oliva2021
 from uavsim.studies.huang2021 import reproduce
@@ -69,11 +70,6 @@ def run_000(runs: int, seed: int) -> dict:
 # ---------------------------------------------------------------- tables
 
 
-def _md(head: list[str], rows: list[list[str]]) -> str:
-    return "\n".join(["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
-                     + ["| " + " | ".join(r) + " |" for r in rows])
-
-
 def tables_002(data: dict) -> dict[str, str]:
     s = data["huang2021"]
     filters = list(s["huang2021-scenario2"]["filters"])
@@ -87,8 +83,8 @@ def tables_002(data: dict) -> dict[str, str]:
     ub = sec["ub-plkf"]
     runtime = [[k, f"{p:.2f}", f"{sec[k] / ub:.2f}", f"{sec[k] / ub / p:.2f}"] for k, p in TABLE2.items()]
     note = provenance(data)
-    return {"huang2021-rmse": _md(head, rows + shift) + "\n\n" + note,
-            "huang2021-runtime": _md(["filter", "[Huang2021] Table 2", "ours, scenario 2", "ratio"], runtime)
+    return {"huang2021-rmse": md(head, rows + shift) + "\n\n" + note,
+            "huang2021-runtime": md(["filter", "[Huang2021] Table 2", "ours, scenario 2", "ratio"], runtime)
             + f"\n\nAbsolute: UB-PLKF {ub * 1e6:.0f} us per scan for all runs at once. " + note}
 
 
@@ -104,7 +100,7 @@ def tables_001(data: dict) -> dict[str, str]:
             rows.append([label, *cols,
                          f"{r['control']['rmse_pos_avg'] / scale[0]:.4g}", f"{r['bought']:+.1%}",
                          f"{s['bought_rho_0.1'][label]:+.1%}"])
-        out[name] = _md(["row", f"RMSE pos ({unit[0]}): published / ours / ratio",
+        out[name] = md(["row", f"RMSE pos ({unit[0]}): published / ours / ratio",
                          f"RMSE vel ({unit[1]}): published / ours / ratio", f"no-update control pos ({unit[0]})",
                          "bought at rho = 7", "bought at rho = 0.1"], rows) + "\n\n" + provenance(data)
     return out
@@ -126,11 +122,11 @@ def tables_000(data: dict) -> dict[str, str]:
     speed = [[name, f"{pub[name]['seconds'][0]:.1f}", f"{v['seconds_per_solve']:.3f}",
               f"{v['converged']}/{s['runs']}"] for name, v in s["scenarios"].items()]
     note = provenance(data)
-    return {"oliva2021-errors": _md(["scenario", "000 Table 2: average rel pos / rel vel", "ours", "ratio",
+    return {"oliva2021-errors": md(["scenario", "000 Table 2: average rel pos / rel vel", "ours", "ratio",
                                      "ours, median per run (bought)"], rows) + "\n\n" + note,
-            "oliva2021-cov": _md(["scenario", "000 Table 3: covariance / within p50 / CRLB", "ours", "ratio"], cov)
+            "oliva2021-cov": md(["scenario", "000 Table 3: covariance / within p50 / CRLB", "ours", "ratio"], cov)
             + "\n\n" + note,
-            "oliva2021-speed": _md(["scenario", "000 Table 4: MIDACO s per solve", "ours: s per solve", "converged"],
+            "oliva2021-speed": md(["scenario", "000 Table 4: MIDACO s per solve", "ours: s per solve", "converged"],
                                    speed) + "\n\n" + note}
 
 
@@ -150,7 +146,7 @@ def tables_003(grid: dict | None, speed: dict | None) -> dict[str, str]:
                          f"{cell['crlb_pos_m']:.0f}", f"{ctrl:.0f}" if ctrl is not None else "-"])
         head = ["target", "sigma (deg)", "K", "NR div % (notes' reference)", "PSO div %", "NRPSO div %",
                 "NR pos (m)", "PSO pos (m)", "NRPSO pos (m)", "CRLB pos (m)", "no bearings (m)"]
-        out["oh2021-grid"] = _md(head, rows) + (
+        out["oh2021-grid"] = md(head, rows) + (
             f"\n\n{grid['runs']} runs a cell, seed {grid['seed']}; {grid['wall_seconds'] / 60:.1f} min wall on "
             f"{grid['workers']} workers, {grid['cpu_seconds'] / 60:.1f} CPU min. " + provenance(grid))
     if speed is not None:
@@ -158,7 +154,7 @@ def tables_003(grid: dict | None, speed: dict | None) -> dict[str, str]:
                  *(f"{r['seconds'][k]:.4f}" for k in ("nr", "pso", "nrpso"))] for r in speed["per_run"]]
         rows += [[f"one run at a time (`BatchTMA`), K = 600, {speed['single']['sigma_deg']:g} deg",
                   *(f"{speed['single']['seconds'][k]:.4f}" for k in ("nr", "pso", "nrpso"))]]
-        out["oh2021-speed"] = _md(["CPU seconds per run", "NR", "PSO", "NRPSO"], rows) + (
+        out["oh2021-speed"] = md(["CPU seconds per run", "NR", "PSO", "NRPSO"], rows) + (
             f"\n\nBlocks of {speed['settings']['runs']} runs, {speed['settings']['dtype']} swarm, one BLAS thread; "
             f"the grid extrapolated from them: {speed['grid_cpu_seconds'] / 60:.1f} CPU min. " + provenance(speed))
     return out
