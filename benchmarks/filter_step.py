@@ -126,6 +126,12 @@ def ms(xs) -> str:
     return f"{1e3 * np.median(xs):7.3f} ({1e3 * np.min(xs):6.3f})"
 
 
+def stats_ms(xs) -> dict:
+    """Median, minimum and p90 of seconds ``xs``, in ms."""
+    return {"median": 1e3 * float(np.median(xs)), "min": 1e3 * float(np.min(xs)),
+            "p90": 1e3 * float(np.quantile(xs, 0.9))}
+
+
 def main() -> None:
     ap = parser(__doc__)
     ap.add_argument("--repeats", type=int, default=200, help="filter steps per configuration")
@@ -136,13 +142,14 @@ def main() -> None:
     run(measure, ap)
 
 
-def measure(args) -> None:
-    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
+def measure(args) -> dict:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints
+    and the figures returned: ms per call by version, ns per decision unit)."""
     if args.alone:
-        step = np.array(filter_runs({"after": filtering}, 1, args.alone)["after"][0])
-        print(f"filter step alone, 1 target x 5000: median {1e3 * np.median(step):.3f} ms, "
-              f"min {1e3 * step.min():.3f} ms, p90 {1e3 * np.quantile(step, 0.9):.3f} ms over {args.alone} steps")
-        return
+        step = stats_ms(filter_runs({"after": filtering}, 1, args.alone)["after"][0])
+        print(f"filter step alone, 1 target x 5000: median {step['median']:.3f} ms, "
+              f"min {step['min']:.3f} ms, p90 {step['p90']:.3f} ms over {args.alone} steps")
+        return {"alone": {"steps": args.alone, "step_ms": step}}
     old_f, old_p = before("filter", args.before), before("traces", args.before)
     if old_f is None or old_p is None:
         print(f"git cannot show the filter and the traces at commit {args.before} "
@@ -150,12 +157,15 @@ def measure(args) -> None:
     filters = {"before": old_f, "after": filtering} if old_f and old_p else {"after": filtering}
     plans = {"before": old_p, "after": planning} if old_f and old_p else {"after": planning}
 
+    figures = {"before_commit": args.before if len(filters) == 2 else None, "filter": {}, "decision": {}}
     print("ms per call, median (min), one process, versions alternating call by call")
     for m in (1, 4):
         res = filter_runs(filters, m, args.repeats)
         print(f"\nfilter step, {m} target{'s' * (m > 1)} x 5000 particles, Lambda = 1, p_D = 0.95, sigma = 1 deg")
         for key, (step, lik, flt) in res.items():
             print(f"  {key:<7} step {ms(step)}   likelihood {ms(lik)}   page faults/step {np.mean(flt):6.1f}")
+            figures["filter"].setdefault(str(m), {})[key] = {"step_ms": stats_ms(step), "likelihood_ms": stats_ms(lik),
+                                                            "page_faults": float(np.mean(flt))}
         if len(res) == 2:
             r = [np.median(res["before"][i]) / np.median(res["after"][i]) for i in (0, 1)]
             print(f"  speed-up: step {r[0]:.1f}x, likelihood {r[1]:.1f}x")
@@ -167,6 +177,10 @@ def measure(args) -> None:
         row = "   ".join(f"{key} {ms(res[key, n])} {1e9 * np.median(res[key, n]) / (n * 244):5.2f} ns"
                          for key in plans)
         print(f"  N = {n:6d}: {row}")
+        for key in plans:
+            figures["decision"].setdefault(str(n), {})[key] = {"ms": stats_ms(res[key, n]),
+                                                              "ns_per_unit": 1e9 * float(np.median(res[key, n])) / (n * 244)}
+    return figures
 
 
 if __name__ == "__main__":

@@ -135,8 +135,8 @@ def rel(a, b) -> float:
     return float(np.max(np.abs(a[both] - b[both]) / np.maximum(np.abs(b[both]), 1.0), initial=0.0))
 
 
-def before_after(mission, steps, seed, trials) -> None:
-    """Print before/after figures (module docstring)."""
+def before_after(mission, steps, seed, trials) -> dict:
+    """Print before/after figures (module docstring) and return them (ms)."""
     runs = {"before": run(mission, steps, seed, before=True), "after": run(mission, steps, seed, before=False)}
     plans = "DAQP's optima" if not OuterApproximation.reference_plans else "Clarabel's re-solve of the chosen QP"
     print(f"\nbefore (Clarabel) / after (DAQP) (ms: median p90 max; CPU = process time, wall = perf_counter); "
@@ -168,8 +168,14 @@ def before_after(mission, steps, seed, trials) -> None:
     print(f"largest relative objective difference after vs before: cold plans {cold:.1e}, re-plans {warm:.1e}")
     print(f"re-plan statuses: {statuses}")
     print(f"how the QPs were settled: {runs['after']['counts']}")
+    figures = {"qp_cpu_ms": {k: 1e3 * float(np.median(r["qp_all"])) for k, r in runs.items()},
+               "replan_cpu_ms": {k: 1e3 * float(np.median([o[4] for w in r["warm"] for o in w]))
+                                 for k, r in runs.items()},
+               "cold_cpu_ms": {k: [1e3 * o[1] for o in r["cold"]] for k, r in runs.items()},
+               "objective_rel_diff": {"cold": cold, "replans": warm}, "statuses": statuses,
+               "qp_counts": runs["after"]["counts"], "replans": sum(len(w) for w in runs["after"]["warm"])}
     if trials <= 0:
-        return
+        return figures
     loops = {k: closed_loop(mission, trials, k == "before") for k in ("before", "after")}
     print(f"\nclosed loop, optimized policy, {len(mission.targets)} targets, {trials} trials x {mission.steps} steps "
           "(ms per step: mean median p90)")
@@ -181,6 +187,11 @@ def before_after(mission, steps, seed, trials) -> None:
               f"{np.mean(b) / np.mean(a):>16.1f}x")
     b, a = loops["before"][1], loops["after"][1]
     print(f"{'total, CPU (mean)':<26}{b * 1e3:>8.1f}{a * 1e3:>40.1f}{b / a:>16.1f}x")
+    total = STAGES.index("total")
+    figures["step_wall_ms"] = {k: 1e3 * float(np.mean(v[0][:, total])) for k, v in loops.items()}
+    figures["step_cpu_ms"] = {k: 1e3 * v[1] for k, v in loops.items()}
+    figures["trials"] = trials
+    return figures
 
 
 def main() -> None:
@@ -197,8 +208,9 @@ def main() -> None:
     harness.run(measure, ap)
 
 
-def measure(args) -> None:
-    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
+def measure(args) -> dict:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints
+    and the figures returned)."""
     OuterApproximation.reference_plans = args.reference_plans
     mission = load_mission(args.mission)
     t0 = time.perf_counter()
@@ -240,8 +252,11 @@ def measure(args) -> None:
               f"{str(masters.tolist()):>26}{max(gaps):>9.1e}  {statuses}")
     every = np.array(every)
     print(f"{'all':<8}{np.median(every):>9.3f}{np.quantile(every, 0.9):>8.3f}{every.max():>8.3f}")
+    figures = {"replan_wall_ms": {"median": 1e3 * float(np.median(every)), "p90": 1e3 * float(np.quantile(every, 0.9)),
+                                  "max": 1e3 * float(every.max())}}
     if args.before:
-        before_after(mission, args.steps, args.seed, args.trials)
+        figures["before_after"] = before_after(mission, args.steps, args.seed, args.trials)
+    return figures
 
 
 if __name__ == "__main__":
