@@ -178,8 +178,8 @@ def measure(args) -> dict:
                          for key in plans)
         print(f"  N = {n:6d}: {row}")
         for key in plans:
-            figures["decision"].setdefault(str(n), {})[key] = {"ms": stats_ms(res[key, n]),
-                                                              "ns_per_unit": 1e9 * float(np.median(res[key, n])) / (n * 244)}
+            ns = 1e9 * float(np.median(res[key, n])) / (n * 244)
+            figures["decision"].setdefault(str(n), {})[key] = {"ms": stats_ms(res[key, n]), "ns_per_unit": ns}
     return figures
 
 

@@ -68,9 +68,10 @@ def main() -> None:
     run(measure, ap)
 
 
-def measure(args) -> None:
-    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
-    out = Path(args.out)
+def measure(args) -> dict:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints
+    and the figures returned: one row per setting)."""
+    out, rows = Path(args.out), {}
     print(f"{'setting':18s}{'no info':>9s}{'optimized':>10s}{'lookahead':>10s}{'ratio':>7s}{'paired t':>9s}"
           f"{'wins':>6s}{'resamples':>10s}{'PCRLB opt / la':>16s}{'planner s/step opt / la':>25s}")
     for k, (name, mission) in enumerate(missions(out).items()):
@@ -94,6 +95,14 @@ def measure(args) -> None:
         print(f"{name:18s}{rmse(err2['baseline']):9.2f}{rmse(b):10.2f}{rmse(a):10.2f}{rmse(a) / rmse(b):7.3f}"
               f"{paired_t(mse_a, mse_b):9.2f}{np.mean(mse_a < mse_b):6.0%}{resampled:10.1%}{bound_s:>16s}"
               f"{secs:>25s}", flush=True)
+        rows[name] = {"trials": args.trials, "area_m": (mission.world.area_hi - mission.world.area_lo)[:2].tolist(),
+                      "obstacles": mission.world.n_obstacles, "targets": len(mission.targets),
+                      "truth": mission.truth,
+                      "rmse": {p: rmse(e) for p, e in err2.items()}, "ratio": rmse(a) / rmse(b),
+                      "paired_t": paired_t(mse_a, mse_b), "wins": float(np.mean(mse_a < mse_b)),
+                      "resamples": float(resampled), "pcrlb": dict(zip(("optimized", "lookahead"), bound)),
+                      "planner_seconds": {p: summary[p]["timing"]["planner"] for p in ("optimized", "lookahead")}}
+    return rows
 
 
 if __name__ == "__main__":

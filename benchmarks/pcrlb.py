@@ -1,9 +1,10 @@
 """The closed-loop PCRLB beside the measured RMSE on a mission, and what the bound costs.
 
-    python benchmarks/pcrlb.py [--mission missions/paper.toml] [--planner optimized] [--trials 20]
-                               [--truth planned|stochastic] [--every 5] [--workers N] [--out runs/pcrlb]
+    python benchmarks/pcrlb.py [--mission missions/paper.toml] [--planner optimized,...] [--trials 20]
+                               [--truth planned,stochastic] [--every 5] [--workers N] [--out runs/pcrlb]
 
-Runs trials 0..n-1 of the mission (its seed) as a campaign (trial files keep the truth, the
+For each planner and truth (comma-separated lists; default: the mission's truth), runs trials
+0..n-1 of the mission (its seed) as a campaign (trial files keep the truth, the
 sensor path and the planned truth's sensitivity) and prints: the IRF of the sensor (and of
 Lambda = 0, 1, 8), per step the trials' RMSE (004 Sec. VI-B, averaged over targets) beside
 the campaign's bound (``pcrlb_planned`` for a planned truth) and beside the recursion of
@@ -33,41 +34,55 @@ from uavsim.config import load_mission
 from uavsim.uav.fixed import fixed_sensor
 
 
-def irf_table(sigma: float, p_detect: float, rate: float) -> None:
+def irf_table(sigma: float, p_detect: float, rate: float) -> dict:
     print(f"{'sigma deg':>10}{'p_D':>6}{'Lambda':>8}{'q2':>12}{'q2 / p_D':>10}")
+    rows = []
     for lam in sorted({0.0, 1.0, 8.0, rate}):
         q2 = information_reduction_factor(sigma, p_detect, lam)
         print(f"{np.degrees(sigma):10.2f}{p_detect:6.2f}{lam:8.2f}{q2:12.6f}{q2 / p_detect if p_detect else 0:10.4f}")
+        rows.append({"sigma_deg": float(np.degrees(sigma)), "p_detect": p_detect, "clutter_rate": lam, "q2": q2})
     lu = 8.0 * sigma / (2 * np.pi)
     t0 = time.perf_counter()
     for _ in range(20):
         _q2_quadrature(lu, p_detect, np.pi / sigma)
-    print(f"IRF quadrature (uncached): {1e3 * (time.perf_counter() - t0) / 20:.1f} ms")
+    ms = 1e3 * (time.perf_counter() - t0) / 20
+    print(f"IRF quadrature (uncached): {ms:.1f} ms")
+    return {"irf": rows, "irf_quadrature_ms": ms}
 
 
 def main() -> None:
     ap = parser(__doc__)
     ap.add_argument("--mission", default="missions/paper.toml")
-    ap.add_argument("--planner", default="optimized")
+    ap.add_argument("--planner", default="optimized", help="comma-separated planners")
     ap.add_argument("--trials", type=int, default=20)
-    ap.add_argument("--truth", choices=("planned", "stochastic"), default=None)
+    ap.add_argument("--truth", default=None, help="comma-separated: planned, stochastic (default: the mission's)")
     ap.add_argument("--every", type=int, default=5, help="print every k-th step")
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     ap.add_argument("--out", default="runs/pcrlb")
     run(measure, ap)
 
 
-def measure(args) -> None:
-    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
+def measure(args) -> dict:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints
+    and the figures returned: per ``planner/truth`` the time averages and the per-step series)."""
     mission = load_mission(args.mission, {"trials": args.trials})
-    if args.truth:
-        mission = replace(mission, truth=args.truth)
-    fixed = args.planner == "fixed-sensors"
-    sensor = fixed_sensor(mission) if fixed else mission.sensor
-    irf_table(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
+    figures = {"campaigns": {}}
+    for truth in (args.truth or mission.truth).split(","):
+        for planner in args.planner.split(","):
+            print(f"\n==== {planner}, truth {truth}")
+            figures["campaigns"][f"{planner}/{truth}"] = campaign(args, replace(mission, truth=truth), planner, figures)
+    return figures
 
-    folder = Path(args.out) / f"{Path(args.mission).stem}-{mission.truth}-{args.planner}"
-    summary = run_campaign(mission, args.planner, out=folder, workers=args.workers, resume=True)
+
+def campaign(args, mission, planner: str, figures: dict) -> dict:
+    """One planner's campaign on ``mission``: prints its table, returns its figures (and puts
+    the sensor's IRF table in ``figures`` the first time it is printed for that sensor)."""
+    sensor = fixed_sensor(mission) if planner == "fixed-sensors" else mission.sensor
+    irf = figures.setdefault("irf", {})
+    if (kind := "fixed-sensors" if planner == "fixed-sensors" else "uav") not in irf:
+        irf[kind] = irf_table(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
+    folder = Path(args.out) / f"{Path(args.mission).stem}-{mission.truth}-{planner}"
+    summary = run_campaign(mission, planner, out=folder, workers=args.workers, resume=True)
     trials = load_trials(folder / "trials", range(args.trials))
     truth = np.stack([trials[k].truth for k in range(args.trials)])
     observers = np.stack([trials[k].observers for k in range(args.trials)])
@@ -82,7 +97,7 @@ def measure(args) -> None:
         secs = time.perf_counter() - t1
     else:
         bound, secs = np.full_like(rmse, np.nan), 0.0
-    print(f"\n{args.planner} on {mission.path} (truth {mission.truth}): {args.trials} trials x {mission.steps} steps "
+    print(f"\n{planner} on {mission.path} (truth {mission.truth}): {args.trials} trials x {mission.steps} steps "
           f"in {summary['wall_seconds']:.0f} s (0 if resumed)")
     print("PCRLB: the campaign's bound (planned truth); model: the recursion with Q and known controls; "
           "model, no sensor: its prediction alone")
@@ -97,6 +112,12 @@ def measure(args) -> None:
               f"{np.nanmedian(ratio):.2f}, steps below 1: {int((ratio < 1).sum())}")
     print(f"bound of {args.trials} trials x {mission.steps} steps x {len(mission.targets)} targets: "
           f"{1e3 * secs:.1f} ms (IRF cached)")
+    finite = np.isfinite(bound)
+    return {"trials": args.trials, "rmse": rmse.tolist(),
+            "pcrlb": [float(b) if f else None for b, f in zip(bound, finite)],
+            "model": model.tolist(), "model_no_sensor": blind.tolist(), "time_avg_rmse": float(rmse.mean()),
+            "time_avg_pcrlb": float(bound.mean()) if finite.all() else None, "time_avg_model": float(model.mean()),
+            "time_avg_model_no_sensor": float(blind.mean()), "bound_ms": 1e3 * secs}
 
 
 if __name__ == "__main__":

@@ -283,8 +283,9 @@ def main() -> None:
     run(measure, ap)
 
 
-def measure(args) -> None:
-    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
+def measure(args) -> dict:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints
+    and the figures returned: the overall summary and each world's shares and RMSE)."""
     out = Path(args.out)
     seeds = range(args.first, args.first + args.worlds)
     t0 = time.perf_counter()
@@ -321,6 +322,10 @@ def measure(args) -> None:
     out.mkdir(parents=True, exist_ok=True)
     (out / "worlds.json").write_text(json.dumps({"overall": overall, "worlds": worlds}, indent=1, default=float))
     print(f"wrote {out / 'worlds.json'}")
+    keep = ("seed", "obstacles", "targets", "area_m", "collisions", "rmse", "rmse_oracle")
+    return {"overall": overall, "wall_seconds": time.perf_counter() - t0,
+            "worlds": [{**{k: w[k] for k in keep}, "replans": shares(w["replans"], gap),
+                        "first_in_goal": [f["in_goal"] for f in w["first"]]} for w in worlds]}
 
 
 if __name__ == "__main__":
