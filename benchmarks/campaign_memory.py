@@ -61,11 +61,13 @@ def main() -> None:
     run(measure, ap)
 
 
-def measure(args) -> None:
-    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
+def measure(args) -> list[dict] | None:
+    """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints
+    and the rows returned)."""
     if args.child:
         child(*args.child)
-        return
+        return None
+    rows = []
     print("tiny paper mission (1 target, horizon 5, 2 steps, 200 particles), trial files on disk")
     print(f"{'workers':>7} {'trials':>7} {'peak RSS MB':>12} {'worker peak MB':>15} {'seconds':>8}  summary hash")
     for workers in args.workers:
@@ -75,6 +77,8 @@ def measure(args) -> None:
             r = json.loads(out.strip().splitlines()[-1])
             worker = f"{r['worker_rss_mb']:15.1f}" if workers > 1 else f"{'(same)':>15}"
             print(f"{workers:>7} {trials:>7} {r['rss_mb']:12.1f} {worker} {r['seconds']:8.1f}  {r['hash']}")
+            rows.append({"workers": workers, "trials": trials, **r})
+    return rows
 
 
 if __name__ == "__main__":

@@ -76,13 +76,70 @@ def tables_stonesoup(data: dict | None) -> dict[str, str]:
             + f"\n\n{f['steps']} filter steps, {d['repeats']} decisions ({same} chosen). " + provenance(data)}
 
 
+def _versus(before: float, after: float, fmt: str = "{:.2f}") -> list[str]:
+    """Cells: before, after, and the speed-up before / after."""
+    return [fmt.format(before), fmt.format(after), f"{before / after:.1f}x"]
+
+
+def _pair(x: dict) -> tuple[float, float]:
+    return x["before"], x["after"]
+
+
+def tables_speed(step: dict | None, alone: dict | None, guidance: dict | None) -> dict[str, str]:
+    """The filter step and the decision before and after their speed-ups
+    (``filter_step.py``, interleaved and ``--alone``), and guidance before and after DAQP
+    (``guidance.py --before``)."""
+    out = {}
+    if step is not None:
+        f, d = step["figures"]["filter"], step["figures"]["decision"]
+        rows = []
+        for key, label in (("step_ms", "filter step, ms"), ("likelihood_ms", "Eq. (10) likelihood, ms")):
+            rows += [[f"{label}, {m} x 5000 particles", *_versus(f[m]["before"][key]["median"],
+                                                                 f[m]["after"][key]["median"], "{:.3f}")]
+                     for m in f]
+        rows += [[f"page faults per filter step, {m} x 5000", *_versus(f[m]["before"]["page_faults"],
+                                                                       f[m]["after"]["page_faults"], "{:.1f}")]
+                 for m in f]
+        rows += [[f"Eq. (13) decision, 61 moves x 4 targets x {int(n) // 1000}k, ns per (move, target, particle)",
+                  *_versus(d[n]["before"]["ns_per_unit"], d[n]["after"]["ns_per_unit"])] for n in d]
+        out["speed-filter"] = (md(["figure (targets x particles)", f"before ({step['figures']['before_commit']})",
+                                   "after", "speed-up"], rows)
+                               + f"\n\nMedians of {step['settings']['repeats']} steps and "
+                               f"{step['settings']['decisions']} decisions per N. " + provenance(step))
+    if alone is not None:
+        a = alone["figures"]["alone"]
+        out["speed-filter-alone"] = (f"The 1-target step run alone ({a['steps']} steps, no old code beside it): "
+                                     f"median {a['step_ms']['median']:.3f} ms, minimum {a['step_ms']['min']:.3f} ms, "
+                                     f"p90 {a['step_ms']['p90']:.3f} ms. " + provenance(alone))
+    if guidance is not None:
+        g = guidance["figures"]["before_after"]
+        cold = [" / ".join(f"{x:.0f}" for x in g["cold_cpu_ms"][k]) for k in ("before", "after")]
+        rows = [["fixed-face QP inside the plans, median CPU ms", *_versus(*_pair(g["qp_cpu_ms"]))],
+                [f"warm re-plan per target, {g['replans']} re-plans, median CPU ms",
+                 *_versus(*_pair(g["replan_cpu_ms"]), "{:.1f}")],
+                ["cold plan per target, CPU ms", *cold, ""],
+                [f"closed-loop step, {g['trials']} trials x 50 steps, mean wall ms",
+                 *_versus(*_pair(g["step_wall_ms"]), "{:.1f}")],
+                ["the same, mean CPU ms (first plans included)", *_versus(*_pair(g["step_cpu_ms"]), "{:.1f}")]]
+        statuses = ", ".join(f"{k} {v}" for k, v in g["statuses"]["after"].items())
+        out["speed-guidance"] = (md(["figure", "before (Clarabel)", "after (DAQP, condensed, verified)", "speed-up"],
+                                    rows)
+                                 + "\n\nLargest relative objective difference, cold plans / re-plans: "
+                                 f"{g['objective_rel_diff']['cold']:.1e} / {g['objective_rel_diff']['replans']:.1e}; "
+                                 f"re-plans after: {statuses}. " + provenance(guidance))
+    return out
+
+
 def pages() -> dict[Path, dict[str, str]]:
     studies = _load(DATA / "tma-studies.json")
     return {DOCS / "results" / "huang2021.md": tables_002(studies), DOCS / "results" / "li2022.md": tables_001(studies),
             DOCS / "results" / "oliva2021.md": tables_000(studies),
             DOCS / "results" / "oh2021.md": tables_003(_load(DATA / "oh2021-grid.json"),
                                                        _load(DATA / "oh2021-speed.json")),
-            DOCS / "results" / "speed.md": tables_startup(_load(DATA / "startup.json")),
+            DOCS / "results" / "speed.md": {**tables_startup(_load(DATA / "startup.json")),
+                                            **tables_speed(_load(DATA / "filter-step.json"),
+                                                           _load(DATA / "filter-step-alone.json"),
+                                                           _load(DATA / "guidance.json"))},
             DOCS / "results" / "papaioannou2023.md": tables_findings(_load(DATA / "findings.json")),
             DOCS / "results" / "stonesoup.md": tables_stonesoup(_load(DATA / "vs-stonesoup.json"))}
 
