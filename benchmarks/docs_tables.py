@@ -17,6 +17,7 @@ import json
 import sys
 from pathlib import Path
 
+import numpy as np
 from harness import ROOT, fill, parser, provenance, run
 from harness import markdown_table as md
 from tma_studies import tables_000, tables_001, tables_002, tables_003
@@ -103,7 +104,7 @@ def tables_speed(step: dict | None, alone: dict | None, guidance: dict | None) -
         rows += [[f"Eq. (13) decision, 61 moves x 4 targets x {int(n) // 1000}k, ns per (move, target, particle)",
                   *_versus(d[n]["before"]["ns_per_unit"], d[n]["after"]["ns_per_unit"])] for n in d]
         out["speed-filter"] = (md(["figure (targets x particles)", f"before ({step['figures']['before_commit']})",
-                                   "after", "speed-up"], rows)
+                                   "after", "before / after"], rows)
                                + f"\n\nMedians of {step['settings']['repeats']} steps and "
                                f"{step['settings']['decisions']} decisions per N. " + provenance(step))
     if alone is not None:
@@ -126,8 +127,49 @@ def tables_speed(step: dict | None, alone: dict | None, guidance: dict | None) -
                                     rows)
                                  + "\n\nLargest relative objective difference, cold plans / re-plans: "
                                  f"{g['objective_rel_diff']['cold']:.1e} / {g['objective_rel_diff']['replans']:.1e}; "
-                                 f"re-plans after: {statuses}. " + provenance(guidance))
+                                 f"re-plans after: {statuses}; how DAQP's QPs were settled: "
+                                 + ", ".join(f"{k} {v}" for k, v in g["qp_counts"].items()) + ". "
+                                 + provenance(guidance))
     return out
+
+
+def tables_pcrlb(data: dict | None) -> dict[str, str]:
+    """The campaigns' RMSE beside their PCRLB and the model's recursion, and beside the
+    no-information baseline of the same truth with their NEES (``pcrlb.py``)."""
+    if data is None:
+        return {}
+    bounds, truths = [], []
+    for key, c in data["figures"]["campaigns"].items():
+        planner, truth = key.split("/")
+        if c["time_avg_pcrlb"] is not None:
+            below = sum(r < b for r, b in zip(c["rmse"], c["pcrlb"]))
+            bounds.append([planner, truth, f"{c['time_avg_rmse']:.2f}", f"{c['time_avg_pcrlb']:.2f}",
+                           f"{c['pcrlb'][-1]:.2f}", below, f"{c['time_avg_model']:.2f}"])
+        base = data["figures"]["campaigns"].get(f"baseline/{truth}")
+        if base is not None and planner != "baseline":
+            half = len(c["rmse"]) // 2
+            truths.append([planner, truth, f"{c['time_avg_rmse']:.2f}", f"{base['time_avg_rmse']:.2f}",
+                           f"{base['time_avg_model_no_sensor']:.2f}",
+                           f"{c['time_avg_rmse'] / base['time_avg_rmse']:.3f}",
+                           f"{np.mean(c['rmse'][half:]) / np.mean(base['rmse'][half:]):.3f}",
+                           f"{c['nees_mean']:.2f}", f"{c['nees_inside']:.0%}", f"{c['nees_below']:.0%}"])
+    first = next(iter(data["figures"]["campaigns"].values()))
+    note = f"\n\nPaper mission, {first['trials']} trials each, time averages over the steps. " + provenance(data)
+    return {"pcrlb": md(["planner", "truth", "RMSE (m)", "PCRLB (m)", "PCRLB at the last step",
+                         "steps with RMSE < PCRLB", "model recursion (m)"], bounds) + note,
+            "truths": md(["planner", "truth", "RMSE (m)", "no information (m)", "model recursion, no sensor (m)",
+                          "ratio", "second half",
+                          "mean position NEES (2 expected)", "NEES in band", "below"], truths) + note}
+
+
+def tables_memory(data: dict | None) -> dict[str, str]:
+    """Peak RSS of campaigns against their trial count (``campaign_memory.py``)."""
+    if data is None:
+        return {}
+    rows = [[r["workers"], r["trials"], f"{r['rss_mb']:.1f}", f"{r['worker_rss_mb']:.1f}" if r["workers"] > 1 else "-",
+             f"{r['seconds']:.1f}", f"`{r['hash']}`"] for r in data["figures"]]
+    return {"speed-memory": md(["workers", "trials", "peak RSS MB", "largest worker's MB", "seconds", "summary hash"],
+                               rows) + "\n\n" + provenance(data)}
 
 
 def pages() -> dict[Path, dict[str, str]]:
@@ -139,8 +181,10 @@ def pages() -> dict[Path, dict[str, str]]:
             DOCS / "results" / "speed.md": {**tables_startup(_load(DATA / "startup.json")),
                                             **tables_speed(_load(DATA / "filter-step.json"),
                                                            _load(DATA / "filter-step-alone.json"),
-                                                           _load(DATA / "guidance.json"))},
-            DOCS / "results" / "papaioannou2023.md": tables_findings(_load(DATA / "findings.json")),
+                                                           _load(DATA / "guidance.json")),
+                                            **tables_memory(_load(DATA / "campaign-memory.json"))},
+            DOCS / "results" / "papaioannou2023.md": {**tables_findings(_load(DATA / "findings.json")),
+                                                      **tables_pcrlb(_load(DATA / "pcrlb.json"))},
             DOCS / "results" / "stonesoup.md": tables_stonesoup(_load(DATA / "vs-stonesoup.json"))}
 
 

@@ -31,6 +31,7 @@ from harness import parser, run
 from uavsim.bounds.pcrlb import _q2_quadrature, information_reduction_factor, pcrlb_for_trials, pcrlb_planned
 from uavsim.campaign import load_trials, run_campaign
 from uavsim.config import load_mission
+from uavsim.metrics import consistency
 from uavsim.uav.fixed import fixed_sensor
 
 
@@ -112,12 +113,16 @@ def campaign(args, mission, planner: str, figures: dict) -> dict:
               f"{np.nanmedian(ratio):.2f}, steps below 1: {int((ratio < 1).sum())}")
     print(f"bound of {args.trials} trials x {mission.steps} steps x {len(mission.targets)} targets: "
           f"{1e3 * secs:.1f} ms (IRF cached)")
+    nees = consistency(np.stack([trials[k].nees_pos for k in range(args.trials)]), 2)
+    print(f"position NEES: mean {np.mean(nees['mean']):.2f} (expected 2), inside its 95% band at "
+          f"{nees['inside']:.0%} of steps, below at {nees['below']:.0%}, above at {nees['above']:.0%}")
     finite = np.isfinite(bound)
     return {"trials": args.trials, "rmse": rmse.tolist(),
             "pcrlb": [float(b) if f else None for b, f in zip(bound, finite)],
             "model": model.tolist(), "model_no_sensor": blind.tolist(), "time_avg_rmse": float(rmse.mean()),
             "time_avg_pcrlb": float(bound.mean()) if finite.all() else None, "time_avg_model": float(model.mean()),
-            "time_avg_model_no_sensor": float(blind.mean()), "bound_ms": 1e3 * secs}
+            "time_avg_model_no_sensor": float(blind.mean()), "bound_ms": 1e3 * secs,
+            "nees_mean": float(np.mean(nees["mean"])), "nees_inside": nees["inside"], "nees_below": nees["below"]}
 
 
 if __name__ == "__main__":
