@@ -155,11 +155,37 @@ def tables_pcrlb(data: dict | None) -> dict[str, str]:
                            f"{c['nees_mean']:.2f}", f"{c['nees_inside']:.0%}", f"{c['nees_below']:.0%}"])
     first = next(iter(data["figures"]["campaigns"].values()))
     note = f"\n\nPaper mission, {first['trials']} trials each, time averages over the steps. " + provenance(data)
+    irf = "; ".join(f"{r['q2']:.3f} at Lambda = {r['clutter_rate']:g}" for r in data["figures"]["irf"]["uav"]["irf"])
+    r = data["figures"]["irf"]["uav"]["irf"][0]
+    irf = f"\n\nThe information reduction factor q2 at sigma = {r['sigma_deg']:g} deg, p_D = {r['p_detect']:g}: {irf}."
     return {"pcrlb": md(["planner", "truth", "RMSE (m)", "PCRLB (m)", "PCRLB at the last step",
-                         "steps with RMSE < PCRLB", "model recursion (m)"], bounds) + note,
+                         "steps with RMSE < PCRLB", "model recursion (m)"], bounds) + irf + note,
             "truths": md(["planner", "truth", "RMSE (m)", "no information (m)", "model recursion, no sensor (m)",
                           "ratio", "second half",
                           "mean position NEES (2 expected)", "NEES in band", "below"], truths) + note}
+
+
+def tables_lookahead(data: dict | None) -> dict[str, str]:
+    """``lookahead`` against ``optimized`` on the same trials per setting (``lookahead.py``)."""
+    if data is None:
+        return {}
+    rows = []
+    for name, r in data["figures"].items():
+        label = f"paper, {r['truth']} truth" if name.startswith("paper") else (
+            f"generated world {name[1:]} ({r['area_m'][0]:.0f} x {r['area_m'][1]:.0f} m, {r['obstacles']} cuboids, "
+            f"{r['targets']} targets)")
+        b = r["pcrlb"]
+        bound = "-" if b["optimized"] is None else f"{b['optimized']:.2f} / {b['lookahead']:.2f}"
+        rows.append([label, f"{r['rmse']['baseline']:.2f}", f"{r['rmse']['optimized']:.2f}",
+                     f"{r['rmse']['lookahead']:.2f}", f"{r['ratio']:.3f}", f"{r['paired_t']:.2f}", f"{r['wins']:.0%}",
+                     f"{r['resamples']:.1%}", bound,
+                     *(" / ".join(f"{1e3 * r[k][p]:.1f}" for p in ("optimized", "lookahead"))
+                       for k in ("planner_seconds", "step_seconds"))])
+    trials = next(iter(data["figures"].values()))["trials"]
+    return {"lookahead": md(["setting", "no information", "optimized", "lookahead", "ratio", "paired t", "wins",
+                             "resamples", "PCRLB opt / la", "decision ms opt / la", "step ms opt / la"], rows)
+            + f"\n\n{trials} trials per setting; RMSE in m; decision and whole closed-loop step: median "
+            "seconds per step, two workers on the two cores. " + provenance(data)}
 
 
 def tables_memory(data: dict | None) -> dict[str, str]:
@@ -185,6 +211,7 @@ def pages() -> dict[Path, dict[str, str]]:
                                             **tables_memory(_load(DATA / "campaign-memory.json"))},
             DOCS / "results" / "papaioannou2023.md": {**tables_findings(_load(DATA / "findings.json")),
                                                       **tables_pcrlb(_load(DATA / "pcrlb.json"))},
+            DOCS / "results" / "lookahead.md": tables_lookahead(_load(DATA / "lookahead.json")),
             DOCS / "results" / "stonesoup.md": tables_stonesoup(_load(DATA / "vs-stonesoup.json"))}
 
 

@@ -101,7 +101,8 @@ def measure(args) -> dict:
                       "rmse": {p: rmse(e) for p, e in err2.items()}, "ratio": rmse(a) / rmse(b),
                       "paired_t": paired_t(mse_a, mse_b), "wins": float(np.mean(mse_a < mse_b)),
                       "resamples": float(resampled), "pcrlb": dict(zip(("optimized", "lookahead"), bound)),
-                      "planner_seconds": {p: summary[p]["timing"]["planner"] for p in ("optimized", "lookahead")}}
+                      "planner_seconds": {p: summary[p]["timing"]["planner"] for p in ("optimized", "lookahead")},
+                      "step_seconds": {p: summary[p]["timing"]["total"] for p in ("optimized", "lookahead")}}
     return rows
 
 
