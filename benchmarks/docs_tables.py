@@ -165,7 +165,7 @@ def tables_pcrlb(data: dict | None) -> dict[str, str]:
                           "mean position NEES (2 expected)", "NEES in band", "below"], truths) + note}
 
 
-def tables_lookahead(data: dict | None) -> dict[str, str]:
+def tables_lookahead(data: dict | None, name: str = "lookahead") -> dict[str, str]:
     """``lookahead`` against ``optimized`` on the same trials per setting (``lookahead.py``)."""
     if data is None:
         return {}
@@ -182,7 +182,7 @@ def tables_lookahead(data: dict | None) -> dict[str, str]:
                      *(" / ".join(f"{1e3 * r[k][p]:.1f}" for p in ("optimized", "lookahead"))
                        for k in ("planner_seconds", "step_seconds"))])
     trials = next(iter(data["figures"].values()))["trials"]
-    return {"lookahead": md(["setting", "no information", "optimized", "lookahead", "ratio", "paired t", "wins",
+    return {name: md(["setting", "no information", "optimized", "lookahead", "ratio", "paired t", "wins",
                              "resamples", "PCRLB opt / la", "decision ms opt / la", "step ms opt / la"], rows)
             + f"\n\n{trials} trials per setting; RMSE in m; decision and whole closed-loop step: median "
             "seconds per step, two workers on the two cores. " + provenance(data)}
@@ -211,7 +211,9 @@ def pages() -> dict[Path, dict[str, str]]:
                                             **tables_memory(_load(DATA / "campaign-memory.json"))},
             DOCS / "results" / "papaioannou2023.md": {**tables_findings(_load(DATA / "findings.json")),
                                                       **tables_pcrlb(_load(DATA / "pcrlb.json"))},
-            DOCS / "results" / "lookahead.md": tables_lookahead(_load(DATA / "lookahead.json")),
+            DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
+                                                **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
+                                                                   "lookahead-clusters2")},
             DOCS / "results" / "stonesoup.md": tables_stonesoup(_load(DATA / "vs-stonesoup.json"))}
 
 
