@@ -188,6 +188,66 @@ def tables_lookahead(data: dict | None, name: str = "lookahead") -> dict[str, st
             "seconds per step, two workers on the two cores. " + provenance(data)}
 
 
+def _q(x: dict, scale: float = 1.0, fmt: str = "{:.2f}") -> str:
+    """median / p90 / p99 / max of a quantiles dict, scaled."""
+    return " / ".join(fmt.format(scale * x[k]) for k in ("median", "p90", "p99", "max")) if x else "-"
+
+
+def tables_worlds(data: dict | None) -> dict[str, str]:
+    """Guidance and the closed loop on the generated worlds (``worlds.py``): the overall
+    figures and the targets tracked worst against the filter handed the truth's forces."""
+    if data is None:
+        return {}
+    f, o = data["figures"], data["figures"]["overall"]
+    r, out = o["replans"], o["first_outside_goal"]
+    rmse = np.concatenate([w["rmse"] for w in f["worlds"]])
+    oracle = np.concatenate([w["rmse_oracle"] for w in f["worlds"]])
+    first = sum(len(w["first_in_goal"]) for w in f["worlds"])
+    ends = (f"{out['n']} ({out['certified']} certified); they end {_q(out['end_to_goal_m'], fmt='{:.1f}')} m from it; "
+            f"a plan ending inside exists for {out['in_goal_plan_found']}, costing "
+            f"{_q(out['in_goal_over_objective'], fmt='{:.5f}')}x the plan's Eq. (7) objective; cheaper: "
+            f"{out['in_goal_cheaper']}") if out["n"] else "0"
+    rows = [["re-plans", f"{r['n']}"],
+            ["certified at gap 1e-4 / feasible within budget / fallback / failed",
+             f"{r['certified']:.2%} / {r['feasible']:.2%} / {r['fallback']:.2%} / {r['failed']:.2%}"],
+            ["collisions (independent point-and-segment check)", f"{o['collisions']}"],
+            ["warm re-plan per target, ms: median / p90 / p99 / max", _q(o["warm_seconds"], 1e3, "{:.1f}")],
+            ["first plan per target, s: median / p90 / p99 / max", _q(o["cold_seconds"])],
+            ["first plans ending in their goal region", f"{o['first_in_goal']:.1%} of {first}"],
+            ["first plans ending outside it", ends],
+            ["first plans worse than the route-fixed QP baseline", f"{o['first_worse_than_routes']}"],
+            ["first plan / route baseline objective: median / p90 / p99 / max",
+             _q(o["objective_over_route_baseline"], fmt="{:.3f}")],
+            ["closed-loop step, s: median / p90 / p99 / max (mean)",
+             f"{_q(o['step_seconds'])} ({o['step_seconds']['mean']:.2f})"],
+            ["the same, 4-target worlds", f"{_q(o['step_seconds_4_targets'])} "
+                                           f"({o['step_seconds_4_targets']['mean']:.2f})"],
+            ["mean RMSE per target, m: own guidance / the truth's forces", f"{rmse.mean():.1f} / {oracle.mean():.1f}"],
+            ["targets with RMSE below that with the truth's forces", f"{int((rmse < oracle).sum())} of {len(rmse)}"],
+            ["RMSE / that with the truth's forces: median / p90 / p99 / max", _q(o["rmse_over_oracle"])],
+            ["targets above 3x", f"{o['targets_over_3x_oracle']}"]]
+    worst = sorted(((a / b, w["seed"], i + 1, a, b) for w in f["worlds"]
+                    for i, (a, b) in enumerate(zip(w["rmse"], w["rmse_oracle"]))), reverse=True)[:6]
+    note = (f"\n\n{o['worlds']} worlds, {data['settings']['trials']} closed-loop trials each (and as many with "
+            f"the truth's forces), {data['settings']['steps']} steps; {data['wall_seconds'] / 60:.0f} min on "
+            f"{data['settings']['workers']} workers. " + provenance(data))
+    return {"worlds": md(["figure", "value"], rows) + note,
+            "worlds-worst": md(["world", "target", "RMSE (m)", "with the truth's forces (m)", "ratio"],
+                               [[s_, t, f"{a:.1f}", f"{b:.1f}", f"{x:.2f}"] for x, s_, t, a, b in worst]) + note}
+
+
+def tables_cities(runs: dict[str, dict | None], gcs: dict | None) -> dict[str, str]:
+    """The cities page's tables: ``scaling.py``'s summaries (``runs``: marker name -> its
+    JSON) and ``gcs_bound.py``'s rows, each as its script prints it."""
+    from gcs_bound import table as gcs_table  # both import the solvers: only here
+    from scaling import table as scaling_table
+
+    out = {name: scaling_table(d["summary"]) + "\n\n" + provenance(d) for name, d in runs.items() if d is not None}
+    if gcs is not None:
+        out["cities-gcs"] = gcs_table(gcs["rows"]) + "\n\n" + provenance(gcs)
+    return out
+
+
 def tables_memory(data: dict | None) -> dict[str, str]:
     """Peak RSS of campaigns against their trial count (``campaign_memory.py``)."""
     if data is None:
@@ -211,6 +271,11 @@ def pages() -> dict[Path, dict[str, str]]:
                                             **tables_memory(_load(DATA / "campaign-memory.json"))},
             DOCS / "results" / "papaioannou2023.md": {**tables_findings(_load(DATA / "findings.json")),
                                                       **tables_pcrlb(_load(DATA / "pcrlb.json"))},
+            DOCS / "guidance-cities.md": tables_cities({f"cities-{k}": _load(DATA / f"{f}.json") for k, f in
+                                                        (("scaling", "scaling"), ("first-plans", "scaling-first-plans"),
+                                                         ("hard", "scaling-hard"), ("clusters", "plan-clusters"))},
+                                                       _load(DATA / "gcs-bound.json")),
+            DOCS / "results" / "worlds.md": tables_worlds(_load(DATA / "worlds.json")),
             DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
                                                 **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
                                                                    "lookahead-clusters2")},
