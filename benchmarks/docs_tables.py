@@ -203,16 +203,18 @@ def tables_worlds(data: dict | None) -> dict[str, str]:
     rmse = np.concatenate([w["rmse"] for w in f["worlds"]])
     oracle = np.concatenate([w["rmse_oracle"] for w in f["worlds"]])
     first = sum(len(w["first_in_goal"]) for w in f["worlds"])
-    ends = (f"{out['n']} ({out['certified']} certified); they end {_q(out['end_to_goal_m'], fmt='{:.1f}')} m from it; "
-            f"a plan ending inside exists for {out['in_goal_plan_found']}, costing "
-            f"{_q(out['in_goal_over_objective'], fmt='{:.5f}')}x the plan's Eq. (7) objective; cheaper: "
-            f"{out['in_goal_cheaper']}") if out["n"] else "0"
+    d, c = out["end_to_goal_m"], out["in_goal_over_objective"]
+    ends = (f"{out['n']} ({out['certified']} certified), {d['median']:.1f} m from it at the median, "
+            f"{d['max']:.1f} m at most; a plan ending inside exists for {out['in_goal_plan_found']}, costing "
+            + (f"{c['min']:.5f} / {c['median']:.2f} / {c['max']:.2f}x (least / median / most)" if "min" in c else
+               f"{c['median']:.2f} / {c['max']:.2f}x (median / most)")
+            + f" the plan's Eq. (7) objective; cheaper than the plan: {out['in_goal_cheaper']}") if out["n"] else "0"
     rows = [["re-plans", f"{r['n']}"],
             ["certified at gap 1e-4 / feasible within budget / fallback / failed",
              f"{r['certified']:.2%} / {r['feasible']:.2%} / {r['fallback']:.2%} / {r['failed']:.2%}"],
             ["collisions (independent point-and-segment check)", f"{o['collisions']}"],
             ["warm re-plan per target, ms: median / p90 / p99 / max", _q(o["warm_seconds"], 1e3, "{:.1f}")],
-            ["first plan per target, s: median / p90 / p99 / max", _q(o["cold_seconds"])],
+            ["first plan per target, ms: median / p90 / p99 / max", _q(o["cold_seconds"], 1e3, "{:.0f}")],
             ["first plans ending in their goal region", f"{o['first_in_goal']:.1%} of {first}"],
             ["first plans ending outside it", ends],
             ["first plans worse than the route-fixed QP baseline", f"{o['first_worse_than_routes']}"],

@@ -228,8 +228,8 @@ def quantiles(seconds) -> dict:
     s = np.asarray(seconds, float)
     if not len(s):
         return {}
-    return {"median": float(np.median(s)), "p90": float(np.quantile(s, 0.9)), "p99": float(np.quantile(s, 0.99)),
-            "max": float(s.max())}
+    return {"min": float(s.min()), "median": float(np.median(s)), "p90": float(np.quantile(s, 0.9)),
+            "p99": float(np.quantile(s, 0.99)), "max": float(s.max())}
 
 
 def outside_goal(first: list[dict], gap: float) -> dict:
