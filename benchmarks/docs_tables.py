@@ -170,9 +170,9 @@ def tables_lookahead(data: dict | None, name: str = "lookahead") -> dict[str, st
     if data is None:
         return {}
     rows = []
-    for name, r in data["figures"].items():
-        label = f"paper, {r['truth']} truth" if name.startswith("paper") else (
-            f"generated world {name[1:]} ({r['area_m'][0]:.0f} x {r['area_m'][1]:.0f} m, {r['obstacles']} cuboids, "
+    for setting, r in data["figures"].items():
+        label = f"paper, {r['truth']} truth" if setting.startswith("paper") else (
+            f"generated world {setting[1:]} ({r['area_m'][0]:.0f} x {r['area_m'][1]:.0f} m, {r['obstacles']} cuboids, "
             f"{r['targets']} targets)")
         b = r["pcrlb"]
         bound = "-" if b["optimized"] is None else f"{b['optimized']:.2f} / {b['lookahead']:.2f}"

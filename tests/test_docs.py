@@ -17,6 +17,30 @@ def test_estimator_result_tables_match_their_json():
     assert out.returncode == 0, out.stdout + out.stderr
 
 
+def test_every_results_table_is_built_from_data():
+    """On the results pages and the cities page every Markdown table sits between
+    ``<!-- data: NAME -->`` markers, so ``docs_tables.py`` made it from a JSON written at a
+    named commit; and no block is left empty (a builder that found no JSON)."""
+    pages = sorted((ROOT / "docs" / "results").glob("*.md")) + [ROOT / "docs" / "guidance-cities.md"]
+    typed, empty = [], []
+    for page in pages:
+        inside, block, previous = None, [], ""
+        for n, line in enumerate(page.read_text().splitlines(), 1):
+            if line.startswith("<!-- data:"):
+                inside, block = line, []
+            elif line.startswith("<!-- /data"):
+                if not any(b.strip() for b in block):
+                    empty.append(f"{page.name}: {inside}")
+                inside = None
+            elif inside is not None:
+                block.append(line)
+            elif line.startswith("|") and not previous.startswith("|"):
+                typed.append(f"{page.name}:{n}")
+            previous = line
+    assert not typed, f"tables typed outside a data block: {typed}"
+    assert not empty, f"data blocks left empty: {empty}"
+
+
 def test_every_benchmark_records_its_machine():
     """Every script in benchmarks/ goes through the shared harness (benchmarks/harness.py):
     its figures can be written as JSON with the commit, CPU, cores, BLAS threads and load."""
