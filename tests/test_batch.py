@@ -1,12 +1,11 @@
-"""Batch maximum-likelihood TMA (estimators/batch.py) and 003's NR, PSO and NRPSO
-(estimators/nrpso.py, studies/oh2021.py; Oh, Shi, Choi 2021).
+"""Batch maximum-likelihood TMA (estimators/batch.py) and [Oh2021]'s NR, PSO and NRPSO
+(estimators/nrpso.py), on the geometry of its study (studies/oh2021.py, tested in
+tests/test_oh2021.py).
 
-Derivatives are checked against central finite differences; the study against the
-paper's statements (Sec. 4) and the figures of an independent reference implementation, with
-bands from the binomial or chi-square spread of the run counts used here.
+Derivatives are checked against central finite differences and the CRLB against an
+independent reference implementation; NR's matrix (Fisher, not the full Hessian) by
+divergence counts (``estimators/nrpso.py``).
 """
-
-import json
 
 import numpy as np
 import pytest
@@ -39,7 +38,7 @@ def _fd(f, x, h):
 def test_gradient_fisher_and_hessian_by_finite_differences(order):
     """M against differences of lam; F against J^T J / sigma^2 with J the differenced
     bearings (the Gauss-Newton matrix); the full Hessian against differences of M.  For
-    constant velocity (003) and constant acceleration (000's six parameters)."""
+    constant velocity ([Oh2021]) and constant acceleration ([Oliva2021]'s six parameters)."""
     phi, obs, _, z, theta = _geometry(order)
     data = batch.prepare(phi, obs, z, 0.02)
     lam, grad, fim = batch.derivatives(data, theta)
@@ -77,7 +76,7 @@ def test_residuals_are_wrapped_and_the_bearing_is_from_x():
 
 
 def test_polynomial_basis():
-    """000 Eq. (12): Q(k) = [I, kT I, k^2 T^2 / 2 I]; 003 Eq. (2) for order 1."""
+    """[Oliva2021, Eq. (12)]: Q(k) = [I, kT I, k^2 T^2 / 2 I]; [Oh2021, Eq. (2)] for order 1."""
     phi = batch.polynomial_basis([10.0, 12.0], order=2)
     np.testing.assert_allclose(phi[1], [[1, 0, 2, 0, 2, 0], [0, 1, 0, 2, 0, 2]])
     np.testing.assert_allclose(batch.polynomial_basis([0.0, 3.0])[1], [[1, 0, 3, 0], [0, 1, 0, 3]])
@@ -168,7 +167,7 @@ def test_singular_fisher_matrix_is_reported_not_nan():
 
 
 def test_bearings_from_north_are_converted_at_the_edge():
-    """003 Eq. (3): theta = atan2(dx, dy), clockwise from north.  problem() turns them into
+    """[Oh2021, Eq. (3)]: theta = atan2(dx, dy), clockwise from north.  problem() turns them into
     batch's h = pi/2 - theta once: at the truth every residual vanishes, and the data equal
     those prepared from +x bearings atan2(dy, dx).  Fed as if they were from +x, the
     bearings put the truth off by far more than the noise."""
@@ -214,7 +213,7 @@ def _small_problem(target=2, sigma_deg=1.9, runs=4, scans=200, seed=SEED):
 
 @pytest.mark.parametrize("method", ["pso", "nrpso"])
 def test_particles_stay_inside_the_search_area(method, monkeypatch):
-    """003 Sec. 4: "PSO only considers the solution inside the search area".  Every
+    """[Oh2021, Sec. 4]: "PSO only considers the solution inside the search area".  Every
     position the swarm evaluates (400 particles x 50 iterations) is in the area."""
     prob, gens = _small_problem(sigma_deg=0.3)
     seen = []
@@ -244,22 +243,6 @@ def test_screening_finds_the_same_best_candidate():
         np.testing.assert_array_equal(a[0], b[0])
 
 
-def test_run_r_does_not_depend_on_grouping_or_workers():
-    """Seeds: run r of a cell draws from SeedSequence(seed).spawn(runs)[r]; the runs'
-    grouping into blocks, the run count and the worker count leave its estimate alone."""
-    cell = oh2021.Cell(2, 1.9, 100)
-    a = oh2021.run_cell(cell, 6, SEED, run_block=4)
-    b = oh2021.run_cell(cell, 6, SEED, run_block=1)
-    for m in oh2021.METHODS:
-        for key in ("diverged_pct", "rmse_pos_m", "rmse_vel_mps"):
-            assert a["methods"][m][key] == b["methods"][m][key]
-    one = oh2021.study(3, SEED, targets=(3,), sigmas_deg=(1.9,), scans=(100,), methods=("nr", "pso"), workers=1)
-    two = oh2021.study(3, SEED, targets=(3,), sigmas_deg=(1.9,), scans=(100,), methods=("nr", "pso"), workers=2)
-    strip = [{m: {k: v for k, v in r.items() if k != "seconds_per_run"} for m, r in c["methods"].items()}
-             for c in (one["cells"] + two["cells"])]
-    assert strip[:2] == strip[2:]
-
-
 def test_estimator_is_deterministic_and_batched():
     """Same settings and seed, same result; a batch of runs equals the runs one by one when
     each has its own generator."""
@@ -278,39 +261,16 @@ def test_estimator_is_deterministic_and_batched():
     assert fits[0].x_.shape == (3, 4) and fits[0].n_iter_.tolist() == [10, 10, 10] and one.cov_.shape == (4, 4)
 
 
-# The study.  Divergence of 003's NR is a binomial count: with N runs and rate p the
-# observed rate has std sqrt(p (1 - p) / N); bands are 3 std wide.
-
-
 def _nr(target, sigma_deg, runs, **kw):
+    """NR on ``runs`` noisy bearing sets of one target at K = 600: the study's metrics and the result."""
     prob, gens = _small_problem(target, sigma_deg, runs, 600)
     res = nrpso.newton_raphson(prob, [g[1] for g in gens], **kw)
     m = oh2021.metrics(res.theta, np.array(oh2021.TARGETS[target]), oh2021.observer([0.0])[0])
     return m, res
 
 
-def test_nr_diverges_on_target_2_at_the_papers_rate():
-    """003 Sec. 4: target 2, sigma = 1.9 deg, K = 600: NR divergence "up to about 40%"
-    (the reference implementation: 41.3% of 1000 runs).  1000 runs: std 1.5%, band 40 +- 4.6%.
-    Measured (seed 2021): 41.2%, position RMSE of the rest 3709 m (reference: 3760 m)."""
-    m, _ = _nr(2, 1.9, 1000)
-    assert abs(m["diverged_pct"] - 40.0) <= 3 * 100 * np.sqrt(0.4 * 0.6 / 1000), m
-
-
-def test_nr_never_diverges_at_small_noise_and_reaches_the_crlb():
-    """003 Sec. 4: "accurate estimates with small standard deviations without divergence".
-    Target 1, 0.1 deg, 300 runs: none diverge, and the position RMSE is the CRLB (111 m)
-    within 3 std of a 2-D Gaussian's RMSE over 300 runs (sqrt(1 / (2 N)) = 4%).
-    Measured: 0 of 300, 108 m (reference: 112 m over 1000 runs)."""
-    m, res = _nr(1, 0.1, 300)
-    assert m["diverged_pct"] == 0.0 and res.converged.all()
-    bound = batch.crlb(batch.polynomial_basis(oh2021.times(600)), oh2021.observer(oh2021.times(600)),
-                       np.array(oh2021.TARGETS[1]), np.radians(0.1))
-    assert m["rmse_pos_m"] == pytest.approx(np.sqrt(bound[0, 0] + bound[1, 1]), rel=3 * np.sqrt(1 / 600))
-
-
 def test_full_hessian_newton_diverges_where_gauss_newton_does_not():
-    """Which matrix is 003's dM/dX: target 2 at 0.1 deg, the reference implementation measured
+    """Which matrix is Oh2021's dM/dX: target 2 at 0.1 deg, the reference implementation measured
     divergence 1% with the Fisher (Gauss-Newton) matrix and 79% with the full Hessian from
     the same 10 000-candidate start.  The paper reports no divergence at small noise, so it
     used the former.  100 runs: GN at most 5%, the full Hessian at least 50%.
@@ -318,39 +278,3 @@ def test_full_hessian_newton_diverges_where_gauss_newton_does_not():
     gn, _ = _nr(2, 0.1, 100)
     full, _ = _nr(2, 0.1, 100, hessian=True)
     assert gn["diverged_pct"] <= 5 and full["diverged_pct"] >= 50, (gn, full)
-
-
-def test_swarms_never_diverge_and_nrpso_beats_pso_at_small_noise():
-    """003 Sec. 4: PSO and NRPSO never diverge (the 15 km search area keeps them inside
-    20 km).  Target 3 at 0.1 deg, where the NR term is on for every particle, NRPSO's
-    RMSE is a fraction of PSO's (reference: 222 m vs 1518 m over 500 runs); 30 runs,
-    paired, must show NRPSO below half of PSO.  Measured: 1431 m and 199 m."""
-    prob, gens = _small_problem(3, 0.1, 30, 600)
-    x0 = np.array(oh2021.TARGETS[3])
-    p = oh2021.metrics(nrpso.pso(prob, [g[2] for g in gens]).theta, x0, np.zeros(2))
-    res = nrpso.nrpso(prob, [g[3] for g in gens])
-    n = oh2021.metrics(res.theta, x0, np.zeros(2))
-    assert p["diverged_pct"] == n["diverged_pct"] == 0.0
-    assert n["rmse_pos_m"] < 0.5 * p["rmse_pos_m"] and res.newton_share.min() > 0.99, (p, n)
-
-
-def test_tma_reproduce_oh2021_command(tmp_path, capsys):
-    from uavsim.cli import main
-
-    args = ["tma", "reproduce", "oh2021", "--runs", "2", "--targets", "2", "--sigmas", "1.9", "--scans", "100,600",
-            "--workers", "1", "--out", str(tmp_path)]
-    assert main(args) == 0
-    result = json.loads((tmp_path / "result.json").read_text())
-    assert [(c["sigma_deg"], c["scans"]) for c in result["cells"]] == [(0.5, 100), (0.5, 600), (1.9, 600)]
-    assert set(result["cells"][0]["methods"]) == {"nr", "pso", "nrpso"}
-    assert (tmp_path / "fig4_sigma.png").stat().st_size > 10_000 and (tmp_path / "fig5_scans.png").exists()
-    assert "nrpso" in capsys.readouterr().out
-    for bad in (["--targets", "4"], ["--sigmas", "0"], ["--scans", "3"], ["--methods", "ga"], ["--workers", "0"]):
-        assert main(["tma", "reproduce", "oh2021", "--runs", "2", "--out", str(tmp_path), *bad]) == 2
-    assert main(["tma", "reproduce", "huang2021-scenario2", "--sigmas", "1", "--out", str(tmp_path)]) == 2
-    fig6 = ["--runs", "2", "--targets", "1", "--sigmas", "0.1,1.9", "--scans", "600", "--methods", "pso,pso1500"]
-    assert main(["tma", "reproduce", "oh2021", "--out", str(tmp_path / "fig6"), "--workers", "1", *fig6]) == 0
-    assert set(json.loads((tmp_path / "fig6" / "result.json").read_text())["cells"][0]["methods"]) == {"pso", "pso1500"}
-    assert "applies to oh2021 only" in capsys.readouterr().err
-
-

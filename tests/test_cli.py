@@ -149,12 +149,12 @@ def test_bad_arguments(capsys, tmp_path, args, message):
 
 def test_io_failure_while_writing_is_one_line(capsys, tmp_path, monkeypatch):
     """An error the checks cannot foresee (here: a full disk) is still one line, exit 2."""
-    import uavsim.cli
+    import uavsim.studies.cli
 
     def full(path, data):
         raise OSError(28, "No space left on device", str(path))
 
-    monkeypatch.setattr(uavsim.cli, "write_json", full)
+    monkeypatch.setattr(uavsim.studies.cli, "write_json", full)
     assert main(["tma", "reproduce", "huang2021-scenario1", "--runs", "2", "--out", str(tmp_path)]) == 2
     assert one_error(capsys, f"{tmp_path / 'result.json'}: No space left on device")
 

@@ -92,13 +92,42 @@ def test_the_estimator_library_stands_alone():
             assert all(d.startswith("uavsim.estimators") for d in inner), (name, inner)
 
 
+#: The studies' front ends, beside them in ``uavsim.studies`` but not part of the library,
+#: and what else of uavsim each may import: the figures (matplotlib, through the campaign
+#: plots' backend and helpers) and the handlers of ``uavsim tma reproduce`` (the command
+#: line's checks and file writer).  The command line imports them when a study runs.
+STUDY_FRONT_ENDS = {"uavsim.studies.plots": ("uavsim.plots",), "uavsim.studies.cli": ("uavsim.cli", "uavsim.files")}
+
+
 def test_the_studies_use_the_library_not_the_simulator():
-    """A study (``uavsim.studies``) imports the methods, the recursive CRLB and other studies."""
+    """A study (``uavsim.studies``) imports the methods, the recursive CRLB and other studies,
+    never a front end; a front end (:data:`STUDY_FRONT_ENDS`) imports those and its own few."""
     allowed = ("uavsim.studies", "uavsim.estimators", "uavsim.bounds.crlb")
     for name, deps in modules().items():
         if name.startswith("uavsim.studies"):
             inner = {d for d in deps if d.startswith("uavsim")}
-            assert all(d.startswith(allowed) for d in inner), (name, inner)
+            assert all(d.startswith(allowed + STUDY_FRONT_ENDS.get(name, ())) for d in inner), (name, inner)
+            if name not in STUDY_FRONT_ENDS:
+                assert not any(d.startswith(tuple(STUDY_FRONT_ENDS)) for d in inner), (name, inner)
+
+
+def test_figures_are_drawn_with_one_backend():
+    """Only ``uavsim.plots`` imports matplotlib (choosing the Agg backend); the studies'
+    figures (``uavsim.studies.plots``) take pyplot and ``_save`` from it, and the command
+    line imports both only inside the commands that draw."""
+    found = modules()
+    assert {m for m, deps in found.items() if any(d.split(".")[0] == "matplotlib" for d in deps)} == {"uavsim.plots"}
+    assert {m for m, deps in found.items() if "uavsim.plots" in deps} == {"uavsim.cli", "uavsim.studies.plots"}
+    top = {n.module for n in ast.parse((PACKAGE / "cli.py").read_text()).body if isinstance(n, ast.ImportFrom)}
+    assert not top & {"plots", "studies.plots", "studies.cli"}, top
+
+
+def test_every_study_has_its_own_tests():
+    """Each paper's study ``uavsim/studies/<key>.py`` is tested in ``tests/test_<key>.py``,
+    apart from the tests of the methods it uses (``tests/test_plkf.py``, ...)."""
+    studies = {p.stem for p in (PACKAGE / "studies").glob("*.py") if re.fullmatch(r"[a-z]+\d{4}", p.stem)}
+    assert studies == {"huang2021", "li2022", "oh2021", "oliva2021"}
+    assert sorted(s for s in studies if not (ROOT / "tests" / f"test_{s}.py").is_file()) == []
 
 
 def test_the_belief_answers_the_policies_without_importing_them():
@@ -111,11 +140,12 @@ def test_the_belief_answers_the_policies_without_importing_them():
             assert not {d for d in deps if d.startswith(above)}, name
 
 def test_the_library_and_the_studies_import_numpy_and_scipy_only():
-    """Importing every method and study loads no simulator module and none of the
-    plotting and solver stack (matplotlib, cvxpy, rerun, HiGHS): users of the library need
-    numpy and scipy only."""
+    """Importing every method and study (their front ends aside) loads no simulator module
+    and none of the plotting and solver stack (matplotlib, cvxpy, rerun, HiGHS): users of
+    the library need numpy and scipy only."""
     library = ("uavsim.estimators", "uavsim.studies")
-    names = sorted({m.removesuffix(".__init__") for m in modules() if m.startswith(library)})
+    names = sorted({m.removesuffix(".__init__") for m in modules()
+                    if m.startswith(library) and m not in STUDY_FRONT_ENDS})
     code = (f"import sys, {', '.join(names)}; "
             "print(' '.join(sorted(m for m in sys.modules if m.split('.')[0] in "
             "('matplotlib', 'cvxpy', 'rerun', 'highspy') or (m.startswith('uavsim.') and not "

@@ -434,35 +434,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def cmd_tma_reproduce(args: argparse.Namespace) -> int:
-    from .plots import tma_rmse_plot
-    from .studies.huang2021 import reproduce, table
-    from .studies.li2022 import SCENARIOS as LI2022
+    """``uavsim tma reproduce NAME``: the studies' handlers, :func:`uavsim.studies.cli.reproduce`
+    (imported when a study runs)."""
+    from .studies.cli import reproduce
 
-    if args.runs is not None and not 2 <= args.runs <= MAX_RUNS:
-        raise UsageError(f"--runs must be in [2, {MAX_RUNS}], got {args.runs}")
-    for flag in OLIVA2021_FLAGS:
-        if getattr(args, flag) is not None and args.name != "oliva2021":
-            raise UsageError(f"--{flag} applies to oliva2021 only, not {args.name}")
-    if args.name == "oh2021":
-        return _reproduce_oh2021(args)
-    for flag in OH2021_FLAGS:
-        if getattr(args, flag) is not None:
-            raise UsageError(f"--{flag} applies to oh2021 only, not {args.name}")
-    if args.name == "oliva2021":
-        return _reproduce_oliva2021(args)
-    if args.name in LI2022:
-        return _tma_reproduce_li2022(args)
-    if args.sigma_scale is not None:
-        raise UsageError(f"--sigma-scale applies to the li2022 studies only, not {args.name}")
-    runs = 300 if args.runs is None else args.runs
-    _seed(args.seed)
-    out = _output_folder(args.out or f"runs/{args.name}", files=("result.json", "rmse.png"))
-    result = reproduce(args.name, runs, args.seed)
-    write_json(out / "result.json", result)
-    tma_rmse_plot(result, out / "rmse.png")
-    print(table(result))
-    print(f"wrote {out / 'result.json'} and {out / 'rmse.png'}")
-    return 0
+    return reproduce(args)
 
 
 def cmd_world_generate(args: argparse.Namespace) -> int:
@@ -499,111 +475,6 @@ def cmd_world_generate(args: argparse.Namespace) -> int:
 
 def _size(v) -> str:
     return " x ".join(f"{x:g}" for x in v[:2])
-
-
-# Paper 001's study: `uavsim tma reproduce li2022-line | li2022-arc-slow | li2022-arc-fast`
-
-def _sigma_scales(text: str) -> list[float]:
-    """``--sigma-scale 1,2,3`` -> ``[1.0, 2.0, 3.0]``: positive finite numbers."""
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        raise UsageError(f"--sigma-scale needs positive numbers RHO[,RHO...], got {text!r}") from None
-    if not all(math.isfinite(v) and v > 0 for v in values):
-        raise UsageError(f"--sigma-scale needs positive numbers RHO[,RHO...], got {text!r}")
-    return values
-
-
-def _tma_reproduce_li2022(args: argparse.Namespace) -> int:
-    from .plots import li2022_curves_plot, li2022_sweep_plot
-    from .studies.li2022 import reproduce, sweep_table, table
-
-    runs = 1000 if args.runs is None else args.runs
-    _seed(args.seed)
-    rhos = None if args.sigma_scale is None else _sigma_scales(args.sigma_scale)
-    out = _output_folder(args.out or f"runs/{args.name}", files=("result.json", "curves.png", "sweep.png"))
-    result = reproduce(args.name, runs, args.seed, rhos)
-    written = [out / "result.json", out / "curves.png"] + ([out / "sweep.png"] if rhos else [])
-    write_json(written[0], result)
-    li2022_curves_plot(result, written[1])
-    print(table(result))
-    if rhos:
-        li2022_sweep_plot(result, written[2])
-        print(sweep_table(result))
-    print(f"wrote {', '.join(map(str, written))}")
-    return 0
-
-
-# --- tma reproduce oh2021: 003's batch MLE study (Figs. 4-5) ---------------------------------
-
-MAX_RUNS = 1_000_000  # Monte-Carlo runs of a paper's study: beyond this, days of CPU
-
-OH2021_FLAGS = ("targets", "sigmas", "scans", "methods", "workers")
-
-
-def _list(text: str, flag: str, kind, ok, what: str) -> tuple:
-    """``1,2,3`` -> ``(1, 2, 3)`` (repeats dropped); every item of ``kind`` and ``ok(item)``,
-    else UsageError."""
-    try:
-        items = tuple(dict.fromkeys(kind(v) for v in text.split(",")))
-    except ValueError:
-        items = ()
-    if not items or not all(ok(v) for v in items):
-        raise UsageError(f"{flag} needs a comma-separated list of {what}; got {text!r}")
-    return items
-
-
-def _reproduce_oh2021(args: argparse.Namespace) -> int:
-    from .plots import oh2021_plots
-    from .studies import oh2021
-
-    targets = _list(args.targets, "--targets", int, lambda t: t in oh2021.TARGETS, "targets from 1, 2, 3") \
-        if args.targets else (1, 2, 3)
-    sigmas = _list(args.sigmas, "--sigmas", float, lambda s: math.isfinite(s) and 0 < s < 90,
-                   "noise std in degrees (0 < s < 90)") if args.sigmas else oh2021.SIGMAS_DEG
-    scans = _list(args.scans, "--scans", int, lambda k: 5 <= k <= 100_000, "scan counts (5..100000)") \
-        if args.scans else oh2021.SCANS
-    methods = _list(args.methods, "--methods", str, lambda m: m in oh2021.ALL_METHODS,
-                    f"methods from {', '.join(oh2021.ALL_METHODS)}") if args.methods else oh2021.METHODS
-    if args.workers is not None and args.workers < 1:
-        raise UsageError("--workers must be at least 1")
-    runs = args.runs or 1000
-
-    def progress(done, total):
-        print(f"oh2021: {done}/{total} cells", file=sys.stderr, flush=True)
-
-    _seed(args.seed)
-    out = _output_folder(args.out or "runs/oh2021", files=("result.json", "fig4_sigma.png", "fig5_scans.png"))
-    result = oh2021.study(runs, args.seed, targets, sigmas, scans, methods,
-                          workers=args.workers or os.cpu_count() or 1, progress=progress)
-    write_json(out / "result.json", result)
-    figures = oh2021_plots(result, out)
-    print(oh2021.table(result))
-    print(f"wrote {out / 'result.json'} and " + ", ".join(str(f) for f in figures))
-    return 0
-
-
-# --- tma reproduce oliva2021: 000's intelligence-aware MLE study (Tables 2-4) ---------------
-
-OLIVA2021_FLAGS = ("solver", "vary", "generations")
-
-
-def _reproduce_oliva2021(args: argparse.Namespace) -> int:
-    from .plots import oliva2021_plot
-    from .studies import oliva2021
-
-    runs = args.runs or 100
-    _seed(args.seed)
-    if args.generations is not None and (args.generations < 1 or args.solver != "global"):
-        raise UsageError("--generations needs --solver global and a count of at least 1")
-    out = _output_folder(args.out or "runs/oliva2021", files=("result.json", "tracks.png"))
-    extra = {} if args.generations is None else {"maxiter": args.generations}
-    result = oliva2021.study(runs, args.seed, args.solver or "local", vary=args.vary or "noise", **extra)
-    write_json(out / "result.json", result)
-    oliva2021_plot(result, out / "tracks.png")
-    print(oliva2021.table(result))
-    print(f"wrote {out / 'result.json'} and {out / 'tracks.png'}")
-    return 0
 
 
 def _campaign_args(p: argparse.ArgumentParser) -> None:
@@ -712,7 +583,8 @@ def build_parser() -> argparse.ArgumentParser:
     from .studies.huang2021_scenarios import SCENARIOS
     from .studies.li2022 import SCENARIOS as LI2022
 
-    tma = sub.add_parser("tma", help="the estimator library (papers 000-003)").add_subparsers(dest="tma", required=True)
+    tma = sub.add_parser("tma", help="the estimator library ([Huang2021], [Li2022], [Oh2021], [Oliva2021])")
+    tma = tma.add_subparsers(dest="tma", required=True)
     p = tma.add_parser("reproduce", help="a paper's simulation study; writes DIR/result.json and figures")
     p.add_argument("name", choices=(*SCENARIOS, *LI2022, "oh2021", "oliva2021"),
                    help="the study: a scenario of [Huang2021] or [Li2022], or the study of [Oh2021] or [Oliva2021]")
@@ -721,7 +593,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=2021, help="run r uses SeedSequence(seed).spawn(runs)[r]")
     p.add_argument("--out", help="output folder (default runs/<name>)")
     p.add_argument("--sigma-scale", metavar="RHO[,RHO...]",
-                   help="li2022 only: also sweep the bearing-noise scale rho (001 Figs. 4, 8, 12; the paper: 1..10)")
+                   help="li2022 only: also sweep the bearing-noise scale rho ([Li2022, Figs. 4, 8, 12]; the paper: "
+                   "1..10)")
     p.add_argument("--targets", help="oh2021: targets, e.g. 1,2,3 (default all)")
     p.add_argument("--sigmas", help="oh2021: noise std (deg) of the K = 600 sweep (default 0.1,0.3,...,1.9)")
     p.add_argument("--scans", help="oh2021: scan counts K of the 0.5 deg sweep (default 100,200,...,600)")
@@ -732,9 +605,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "(differential evolution, then the local solver)")
     p.add_argument("--vary", choices=("noise", "start"),
                    help="oliva2021: a new noise draw per run (default) or one draw and a new start per run "
-                   "(000's '100 instances with random initial choice')")
+                   "(Oliva2021's '100 instances with random initial choice')")
     p.add_argument("--generations", type=int, help="oliva2021 --solver global: differential evolution's "
-                   "generations of 90 members (default 300, about 27 000 evaluations; 000's MIDACO: 1e6)")
+                   "generations of 90 members (default 300, about 27 000 evaluations; Oliva2021's MIDACO: 1e6)")
     p.set_defaults(func=cmd_tma_reproduce)
 
     world = sub.add_parser("world", help="worlds and missions").add_subparsers(dest="world", required=True)

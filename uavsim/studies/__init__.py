@@ -8,6 +8,8 @@ scenarios as data, its metrics and its tables beside the published values.
 * :mod:`.oliva2021` (``oliva2021``): [Oliva2021] Sec. 3, the intelligence-aware MLE.
 
 The studies use the methods of :mod:`uavsim.estimators` (which never import a study) and
-the recursive CRLB of :mod:`uavsim.bounds.crlb`; numpy and scipy only.  Their figures are
-drawn by :mod:`uavsim.plots`.
+the recursive CRLB of :mod:`uavsim.bounds.crlb`; numpy and scipy only.  Their front ends
+live beside them and are imported only when a study runs from the command line:
+:mod:`.plots` draws their figures (matplotlib), :mod:`.cli` holds the handlers of
+``uavsim tma reproduce``.
 """

@@ -3,7 +3,7 @@
 Runs every filter of :mod:`uavsim.estimators.plkf` on the same R runs (batched: one array op per scan for
 all runs), then writes ``result.json`` (per filter: RMSE curves, time-averaged RMSE,
 seconds per scan; the CRLB / constrained CRLB curves where the paper plots them);
-:func:`uavsim.plots.tma_rmse_plot` draws it like the paper's Figs. 3, 5 and 7.
+:func:`uavsim.studies.plots.tma_rmse_plot` draws it like the paper's Figs. 3, 5 and 7.
 """
 
 from __future__ import annotations
