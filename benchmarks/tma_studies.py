@@ -1,12 +1,12 @@
 """The estimator library's reproduction studies, their no-update controls, and the docs' tables.
 
-    python benchmarks/tma_studies.py [--runs-002 300] [--runs-001 1000] [--runs-000 100]
+    python benchmarks/tma_studies.py [--runs-huang2021 300] [--runs-li2022 1000] [--runs-oliva2021 100]
 
-Runs every ``uavsim tma reproduce`` study of papers 002 (four scenarios), 001 (three, at
-the tables' noise rho = 7, and the no-update control at rho = 0.1) and 000 (four scenarios,
-local solver), each beside its control: the same runs with every bearing update off (002,
-001) or the estimate from the intelligence alone (000).  Writes
-``docs/data/tma-studies.json`` (with the machine).  003's grid is
+Runs every ``uavsim tma reproduce`` study of [Huang2021] (four scenarios), [Li2022] (three,
+at the tables' noise rho = 7, and the no-update control at rho = 0.1) and [Oliva2021] (four
+scenarios, local solver), each beside its control: the same runs with every bearing update off
+([Huang2021], [Li2022]) or the estimate from the intelligence alone ([Oliva2021]).  Writes
+``docs/data/tma-studies.json`` (with the machine).  [Oh2021]'s grid is
 ``benchmarks/batch_tma.py --grid`` (``docs/data/oh2021-grid.json``) and its speed
 ``benchmarks/batch_tma.py --json`` (``docs/data/oh2021-speed.json``);
 ``benchmarks/docs_tables.py`` builds the tables of all four papers' pages from these files.
@@ -162,15 +162,15 @@ def tables_003(grid: dict | None, speed: dict | None) -> dict[str, str]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs-002", type=int, default=300)
-    ap.add_argument("--runs-001", type=int, default=1000)
-    ap.add_argument("--runs-000", type=int, default=100)
+    ap.add_argument("--runs-huang2021", type=int, default=300)
+    ap.add_argument("--runs-li2022", type=int, default=1000)
+    ap.add_argument("--runs-oliva2021", type=int, default=100)
     ap.add_argument("--seed", type=int, default=2021)
     ap.add_argument("--out", default=str(DATA / "tma-studies.json"))
     args = ap.parse_args()
     started, t0 = machine(), time.perf_counter()
-    data = {"huang2021": run_002(args.runs_002, args.seed), "li2022": run_001(args.runs_001, args.seed),
-            "oliva2021": run_000(args.runs_000, args.seed)}
+    data = {"huang2021": run_002(args.runs_huang2021, args.seed), "li2022": run_001(args.runs_li2022, args.seed),
+            "oliva2021": run_000(args.runs_oliva2021, args.seed)}
     write(Path(args.out), {"settings": vars(args), "wall_seconds": time.perf_counter() - t0, **data}, started)
     print(f"wrote {args.out}; python benchmarks/docs_tables.py puts its tables in docs/results/",
           file=sys.stderr)

@@ -266,3 +266,39 @@ def test_code_tests_and_benchmarks_name_nothing_outside_the_clone():
 
 def test_documents_name_nothing_outside_the_clone():
     assert stale_lines(documents=True) == []
+
+
+#: A paper cited by the number it had in the project's private reading list, 00N with N
+#: in 0-4, instead of its key ([Papaioannou2023, Eq. (8)], docs/references.md): "00N Sec.
+#: IV", "paper 00N's", "(00N)", "papers 00N-00N", "cf. 00N Fig. 5".  Such digits inside a
+#: number (0.00N, 1.00N, "27 00N", 10_00N, 2026-11-0N) are data, not a citation.
+CITED_BY_NUMBER = re.compile(r"(?<![\d.,:_/-])(?<!\d )\b00[0-4]\b(?![.,_:]?\d)")
+#: TEMPORARY: files still being edited on other branches; each still cites by number and
+#: is skipped until those branches are merged and its citations replaced.  Empty this list
+#: then.  benchmarks/tma_studies.py is here only for its three table headers ("00N Table
+#: 2: ..."), which benchmarks/docs_tables.py writes into docs/results/oliva2021.md: header
+#: and page must change together (tests/test_docs.py).  uavsim/cli.py is here for the
+#: section comments of its ``tma`` study handlers.
+NOT_YET = ["uavsim/plots.py", "uavsim/studies/", "uavsim/cli.py", "tests/test_plkf.py", "tests/test_intelligence.py",
+           "tests/test_batch.py", "tests/test_li2022.py", "benchmarks/filter_step.py", "benchmarks/guidance.py",
+           "benchmarks/pcrlb.py", "benchmarks/lookahead.py", "benchmarks/worlds.py", "benchmarks/docs_tables.py",
+           "benchmarks/tma_studies.py", "docs/results/", "README.md"]
+#: Lines (file, how the line starts) that must spell a number: paper.toml's description
+#: when the fingerprint tests/test_evaluation.py pins was computed, verbatim (the
+#: description is hashed into the fingerprint).
+VERBATIM = {("tests/test_evaluation.py", "PAPER_DESCRIPTION_THEN = ")}
+
+
+def test_papers_are_cited_by_key_not_by_number():
+    """A clone has docs/references.md, which resolves keys; the numbers resolve nowhere.
+    No file lists the numbers as a key (docs/references.md included), so no file is
+    excepted; one line is, a verbatim record (VERBATIM)."""
+    texts = tracked_texts()
+    assert all(any(name.startswith(p) for name in texts) for p in NOT_YET), "NOT_YET names a path no file has"
+    verbatim = [(name, start) for name, start in VERBATIM
+                if any(line.startswith(start) for line in texts.get(name, "").splitlines())]
+    assert verbatim == sorted(VERBATIM), "VERBATIM names a line no file has"
+    found = [f"{name}:{n}: {line.strip()}" for name, text in texts.items() if not name.startswith(tuple(NOT_YET))
+             for n, line in enumerate(text.splitlines(), 1)
+             if CITED_BY_NUMBER.search(line) and not any(name == f and line.startswith(s) for f, s in VERBATIM)]
+    assert found == []
