@@ -1,4 +1,4 @@
-"""Speed of 003's batch TMA (NR, PSO, NRPSO) and the wall time of the study's full grid.
+"""Speed of [Oh2021]'s batch TMA (NR, PSO, NRPSO) and the wall time of the study's full grid.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/batch_tma.py [--runs 40] [--json docs/data/oh2021-speed.json]
     OPENBLAS_NUM_THREADS=1 python benchmarks/batch_tma.py --grid [--workers 2] --json docs/data/oh2021-grid.json
@@ -83,7 +83,7 @@ def single(sigma_deg: float, runs: int) -> dict:
         total = 0.0
         for g in gens:
             z = nrpso.wrap(oh2021.bearings(2, prob_t) + sig * g[0].standard_normal(600))
-            # 003's bearings are clockwise from north (Eq. 3), the BatchTMA default
+            # [Oh2021]'s bearings are clockwise from north (Eq. 3), the BatchTMA default
             est = nrpso.BatchTMA(sigma=sig, method=m, rng=g[1])
             total += _cpu(est.fit, prob_t, z, oh2021.observer(prob_t))
         out[m] = total / runs

@@ -5,7 +5,7 @@
 
 A page holds ``<!-- data: NAME -->`` ... ``<!-- /data -->``; the text between is made here
 and nowhere else (``tests/test_docs.py`` runs ``--check``).  The JSON files come from
-``benchmarks/tma_studies.py`` (the estimator studies), ``benchmarks/batch_tma.py`` (003's
+``benchmarks/tma_studies.py`` (the estimator studies), ``benchmarks/batch_tma.py`` ([Oh2021]'s
 grid and speed), ``benchmarks/startup.py`` (the command line's start-up) and
 ``benchmarks/findings.py --json docs/data/findings.json`` (the paper's findings) and
 ``benchmarks/vs_stonesoup.py --json docs/data/vs-stonesoup.json`` (against Stone Soup).
@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 from harness import ROOT, fill, parser, provenance, run
 from harness import markdown_table as md
-from tma_studies import tables_000, tables_001, tables_002, tables_003
+from tma_studies import tables_huang2021, tables_li2022, tables_oh2021, tables_oliva2021
 
 DATA, DOCS = ROOT / "docs" / "data", ROOT / "docs"
 
@@ -313,9 +313,10 @@ def pages() -> dict[Path, dict[str, str]]:
     studies = _load(DATA / "tma-studies.json")
     cities = {f"cities-{k}": _load(DATA / f"{f}.json") for k, f in (("scaling", "scaling"),
               ("first-plans", "scaling-first-plans"), ("hard", "scaling-hard"), ("clusters", "plan-clusters"))}
-    return {DOCS / "results" / "huang2021.md": tables_002(studies), DOCS / "results" / "li2022.md": tables_001(studies),
-            DOCS / "results" / "oliva2021.md": tables_000(studies),
-            DOCS / "results" / "oh2021.md": tables_003(_load(DATA / "oh2021-grid.json"),
+    return {DOCS / "results" / "huang2021.md": tables_huang2021(studies),
+            DOCS / "results" / "li2022.md": tables_li2022(studies),
+            DOCS / "results" / "oliva2021.md": tables_oliva2021(studies),
+            DOCS / "results" / "oh2021.md": tables_oh2021(_load(DATA / "oh2021-grid.json"),
                                                        _load(DATA / "oh2021-speed.json")),
             DOCS / "results" / "speed.md": {**tables_startup(_load(DATA / "startup.json")),
                                             **tables_speed(_load(DATA / "filter-step.json"),

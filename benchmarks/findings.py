@@ -1,4 +1,4 @@
-"""The paper's findings (004 Sec. VI-B, Fig. 2c and 3e) re-measured: RMSE, the
+"""The paper's findings ([Papaioannou2023, Sec. VI-B, Fig. 2c and 3e]) re-measured: RMSE, the
 no-information baseline, NEES, paired statistics.
 
     python benchmarks/findings.py [--trials 100] [--workers N] [--out runs/findings]

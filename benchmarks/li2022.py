@@ -1,4 +1,4 @@
-"""Runtime of paper 001's filters and constraint methods, and of the whole study.
+"""Runtime of [Li2022]'s filters and constraint methods, and of the whole study.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/li2022.py [--runs 1000] [--repeats 3]
 

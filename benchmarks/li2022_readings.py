@@ -1,4 +1,4 @@
-"""How far each reading of paper 001 moves the published comparison (Tables 5, 7, 9).
+"""How far each reading of [Li2022] moves the published comparison (Tables 5, 7, 9).
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/li2022_readings.py [--runs 1000] [--seed 2021]
 

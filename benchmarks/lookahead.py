@@ -42,7 +42,7 @@ PLANNERS = ("baseline", "optimized", "lookahead")
 
 
 def rmse(err2: np.ndarray) -> float:
-    """Time-averaged RMSE of 004 Sec. VI-B from (trials, steps, M) squared errors."""
+    """Time-averaged RMSE of [Papaioannou2023, Sec. VI-B] from (trials, steps, M) squared errors."""
     return float(np.sqrt(err2.mean(axis=0)).mean())
 
 

@@ -1,4 +1,4 @@
-"""Speed of 000's study (intelligence-aware MLE) and what the global stage buys.
+"""Speed of [Oliva2021]'s study (intelligence-aware MLE) and what the global stage buys.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/oliva2021.py [--runs 100]
     OPENBLAS_NUM_THREADS=1 python benchmarks/oliva2021.py --global [--runs 5] [--generations 30,100,300]
@@ -6,11 +6,11 @@
 
 Default: per scenario the wall time of ``--runs`` local solves (the pseudo-linear start,
 the Levenberg-Marquardt batch, SLSQP per run with constraints) and of each stage; the
-target is 100 solves within a minute (000 Table 4: MIDACO 59-86 s per single solve).
+target is 100 solves within a minute ([Oliva2021, Table 4]: MIDACO 59-86 s per single solve).
 ``--global``: differential evolution at each budget on the same runs: seconds per solve,
 objective evaluations, how far the DE point's objective is above the local solver's
 (``lam``; the noise moves ``lam`` by about 3) and the mean relative velocity error of
-the raw DE points (000's failure mode) and after the local polish.  ``--gaco``: the same
+the raw DE points ([Oliva2021]'s failure mode) and after the local polish.  ``--gaco``: the same
 for pygmo's extended ant colony optimiser (MIDACO's family; ``pip install pygmo``), if
 installed, with the constraints as a penalty.
 """

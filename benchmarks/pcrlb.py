@@ -6,7 +6,7 @@
 For each planner and truth (comma-separated lists; default: the mission's truth), runs trials
 0..n-1 of the mission (its seed) as a campaign (trial files keep the truth, the
 sensor path and the planned truth's sensitivity) and prints: the IRF of the sensor (and of
-Lambda = 0, 1, 8), per step the trials' RMSE (004 Sec. VI-B, averaged over targets) beside
+Lambda = 0, 1, 8), per step the trials' RMSE ([Papaioannou2023, Sec. VI-B], averaged over targets) beside
 the campaign's bound (``pcrlb_planned`` for a planned truth) and beside the recursion of
 the mission's model (A, Q, controls as known inputs; ``pcrlb_for_trials``), which the
 simulator's truths do not follow (their controls answer their own state): with no sensor

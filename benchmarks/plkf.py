@@ -1,4 +1,4 @@
-"""Runtime per scan of the five pseudo-linear filters, normalised by UB-PLKF (002 Table 2).
+"""Runtime per scan of the five pseudo-linear filters, normalised by UB-PLKF ([Huang2021, Table 2]).
 
     python benchmarks/plkf.py [--repeats 5]
 

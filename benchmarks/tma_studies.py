@@ -1,12 +1,12 @@
 """The estimator library's reproduction studies, their no-update controls, and the docs' tables.
 
-    python benchmarks/tma_studies.py [--runs-002 300] [--runs-001 1000] [--runs-000 100]
+    python benchmarks/tma_studies.py [--runs-huang2021 300] [--runs-li2022 1000] [--runs-oliva2021 100]
 
-Runs every ``uavsim tma reproduce`` study of papers 002 (four scenarios), 001 (three, at
-the tables' noise rho = 7, and the no-update control at rho = 0.1) and 000 (four scenarios,
-local solver), each beside its control: the same runs with every bearing update off (002,
-001) or the estimate from the intelligence alone (000).  Writes
-``docs/data/tma-studies.json`` (with the machine).  003's grid is
+Runs every ``uavsim tma reproduce`` study of [Huang2021] (four scenarios), [Li2022] (three,
+at the tables' noise rho = 7, and the no-update control at rho = 0.1) and [Oliva2021] (four
+scenarios, local solver), each beside its control: the same runs with every bearing update off
+([Huang2021], [Li2022]) or the estimate from the intelligence alone ([Oliva2021]).  Writes
+``docs/data/tma-studies.json`` (with the machine).  [Oh2021]'s grid is
 ``benchmarks/batch_tma.py --grid`` (``docs/data/oh2021-grid.json``) and its speed
 ``benchmarks/batch_tma.py --json`` (``docs/data/oh2021-speed.json``);
 ``benchmarks/docs_tables.py`` builds the tables of all four papers' pages from these files.
@@ -30,7 +30,7 @@ TABLE2 = {"bc-plkf": 1.35, "iv-plkf": 2.12, "ub-plkf": 1.0, "vc-plkf": 1.21}  # 
 DATA = ROOT / "docs" / "data"
 
 
-def run_002(runs: int, seed: int) -> dict:
+def run_huang2021(runs: int, seed: int) -> dict:
     out = {}
     for name in SCENARIOS:
         r = reproduce(name, runs, seed)
@@ -43,7 +43,7 @@ def run_002(runs: int, seed: int) -> dict:
     return out
 
 
-def run_001(runs: int, seed: int) -> dict:
+def run_li2022(runs: int, seed: int) -> dict:
     out = {}
     for name in li2022.SCENARIOS:
         r = li2022.reproduce(name, runs, seed)
@@ -60,7 +60,7 @@ def run_001(runs: int, seed: int) -> dict:
     return out
 
 
-def run_000(runs: int, seed: int) -> dict:
+def run_oliva2021(runs: int, seed: int) -> dict:
     r = oliva2021.study(runs, seed)
     keep = ("average", "median", "cov", "cov50", "crlb", "seconds_per_solve", "converged", "feasible", "bought")
     return {"runs": runs, "control": r["control"], "wall_seconds": r["wall_seconds"],
@@ -70,7 +70,7 @@ def run_000(runs: int, seed: int) -> dict:
 # ---------------------------------------------------------------- tables
 
 
-def tables_002(data: dict) -> dict[str, str]:
+def tables_huang2021(data: dict) -> dict[str, str]:
     s = data["huang2021"]
     filters = list(s["huang2021-scenario2"]["filters"])
     head = ["scenario", "no-update control", *filters, "CRLB"]
@@ -88,7 +88,7 @@ def tables_002(data: dict) -> dict[str, str]:
             + f"\n\nAbsolute: UB-PLKF {ub * 1e6:.0f} us per scan for all runs at once. " + note}
 
 
-def tables_001(data: dict) -> dict[str, str]:
+def tables_li2022(data: dict) -> dict[str, str]:
     out = {}
     for name, s in data["li2022"].items():
         scale = s["unit_scale"]
@@ -106,7 +106,7 @@ def tables_001(data: dict) -> dict[str, str]:
     return out
 
 
-def tables_000(data: dict) -> dict[str, str]:
+def tables_oliva2021(data: dict) -> dict[str, str]:
     s, pub = data["oliva2021"], oliva2021.PUBLISHED
     c = s["control"]["errors"]
     rows = [["intelligence alone (no bearings)", "-", f"{c[0]:.4g} / {c[1]:.4g}", "-", "-"]]
@@ -122,15 +122,15 @@ def tables_000(data: dict) -> dict[str, str]:
     speed = [[name, f"{pub[name]['seconds'][0]:.1f}", f"{v['seconds_per_solve']:.3f}",
               f"{v['converged']}/{s['runs']}"] for name, v in s["scenarios"].items()]
     note = provenance(data)
-    return {"oliva2021-errors": md(["scenario", "000 Table 2: average rel pos / rel vel", "ours", "ratio",
+    return {"oliva2021-errors": md(["scenario", "Oliva2021 Table 2: average rel pos / rel vel", "ours", "ratio",
                                      "ours, median per run (bought)"], rows) + "\n\n" + note,
-            "oliva2021-cov": md(["scenario", "000 Table 3: covariance / within p50 / CRLB", "ours", "ratio"], cov)
+            "oliva2021-cov": md(["scenario", "Oliva2021 Table 3: covariance / within p50 / CRLB", "ours", "ratio"], cov)
             + "\n\n" + note,
-            "oliva2021-speed": md(["scenario", "000 Table 4: MIDACO s per solve", "ours: s per solve", "converged"],
-                                   speed) + "\n\n" + note}
+            "oliva2021-speed": md(["scenario", "Oliva2021 Table 4: MIDACO s per solve", "ours: s per solve",
+                                   "converged"], speed) + "\n\n" + note}
 
 
-def tables_003(grid: dict | None, speed: dict | None) -> dict[str, str]:
+def tables_oh2021(grid: dict | None, speed: dict | None) -> dict[str, str]:
     out = {}
     if grid is not None and "cells" in grid:
         rows = []
@@ -162,15 +162,16 @@ def tables_003(grid: dict | None, speed: dict | None) -> dict[str, str]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--runs-002", type=int, default=300)
-    ap.add_argument("--runs-001", type=int, default=1000)
-    ap.add_argument("--runs-000", type=int, default=100)
+    ap.add_argument("--runs-huang2021", type=int, default=300)
+    ap.add_argument("--runs-li2022", type=int, default=1000)
+    ap.add_argument("--runs-oliva2021", type=int, default=100)
     ap.add_argument("--seed", type=int, default=2021)
     ap.add_argument("--out", default=str(DATA / "tma-studies.json"))
     args = ap.parse_args()
     started, t0 = machine(), time.perf_counter()
-    data = {"huang2021": run_002(args.runs_002, args.seed), "li2022": run_001(args.runs_001, args.seed),
-            "oliva2021": run_000(args.runs_000, args.seed)}
+    data = {"huang2021": run_huang2021(args.runs_huang2021, args.seed),
+            "li2022": run_li2022(args.runs_li2022, args.seed),
+            "oliva2021": run_oliva2021(args.runs_oliva2021, args.seed)}
     write(Path(args.out), {"settings": vars(args), "wall_seconds": time.perf_counter() - t0, **data}, started)
     print(f"wrote {args.out}; python benchmarks/docs_tables.py puts its tables in docs/results/",
           file=sys.stderr)

@@ -110,6 +110,25 @@ def test_a_second_run_resumes_an_unfinished_campaign(tmp_path, capsys):
     assert results(a) == results(b)
 
 
+def test_a_reworded_description_keeps_the_campaign(tmp_path, capsys):
+    """The description is hashed into the fingerprint but changes no trial: a folder made
+    before the mission's description was reworded is still this run's campaign (reused,
+    not refused); any other setting still refuses it."""
+    path = write_small_mission(tmp_path)
+    out = tmp_path / "c"
+    base = ["run", str(path), "--trials", "1", "--steps", "2", "--workers", "1", "--quiet", "--out", str(out)]
+    assert main(base) == 0
+    files = trial_files(out)
+    text = path.read_text()
+    assert "\ndescription = " in text
+    path.write_text(text.replace("\ndescription = \"", "\ndescription = \"reworded: ", 1))
+    capsys.readouterr()
+    assert main(base) == 0
+    assert f"reusing the finished campaign in {out}" in capsys.readouterr().out
+    assert trial_files(out) == files
+    assert main(base + ["--seed", "99"]) == 2
+
+
 def test_another_campaign_is_refused_with_what_differs_then_replaced_by_fresh(tmp_path, capsys):
     mission = str(write_small_mission(tmp_path))
     out = tmp_path / "c"

@@ -20,7 +20,7 @@ COV0 = "cov0_si = [200.0, 200.0, 1e-10, 20.0, 20.0, 1e-10]"
 
 
 def test_paper_mission_values():
-    """Every number of 004 Sec. VI-A lands in the right field."""
+    """Every number of [Papaioannou2023, Sec. VI-A] lands in the right field."""
     m = load_mission(PAPER)
     assert m.dynamics.dt == 1.0 and m.dynamics.friction == 0.2 and m.dynamics.mass == 1300.0
     np.testing.assert_array_equal(np.diag(m.dynamics.q), [30, 30, 1e-10, 3, 3, 1e-10])

@@ -57,7 +57,7 @@ def test_li2022_line_is_informative_at_low_noise():
 
 
 def test_huang2021_scenario1_iv_plkf_diagnosis():
-    """Why IV-PLKF's scenario-1 RMSE is 19.7 km (300 runs) where 002 says IV is close to BC
+    """Why IV-PLKF's scenario-1 RMSE is 19.7 km (300 runs) where [Huang2021] says IV is close to BC
     (1343 m): 79% of its updates have R + H P G^T <= 0 (the instrumental row from the
     bias-compensated bearing against the measured row, at ranges of 141-886 m and 5 deg
     noise), so the gain is undefined and the update skipped; in 10 of 300 runs the few
@@ -77,7 +77,7 @@ def test_huang2021_scenario1_iv_plkf_diagnosis():
 
 
 def test_oh2021_fixed_truths_sit_where_a_guess_lands():
-    """003's batch study has no prior to predict; its no-bearings control is the mean of
+    """[Oh2021]'s batch study has no prior to predict; its no-bearings control is the mean of
     the search area the first bearing places (Table 2).  Its three fixed targets start
     8.0-8.2 km out, next to that area's mean range (7.5 km), so the guess alone is
     0.5-0.8 km off (100 runs: 483-784 m), closer than NR at 1.9 deg (3.8 km on target 2).
@@ -90,7 +90,7 @@ def test_oh2021_fixed_truths_sit_where_a_guess_lands():
 
 
 def test_oliva2021_bearings_beat_the_intelligence_alone():
-    """000's study against its no-bearings control: the mean of the tracks that keep to
+    """[Oliva2021]'s study against its no-bearings control: the mean of the tracks that keep to
     Table 1's sets (the estimate from the intelligence alone) is about 0.96 / 1.49 off in
     relative position / velocity (100 000 draws), so every scenario's converged MLE, whose
     median errors are 0.02-0.13 / 0.08-0.36 at 100 runs, bought 76-98% of it (over half

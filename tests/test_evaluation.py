@@ -140,18 +140,22 @@ def test_a_planners_fingerprint_leaves_out_the_other_planners_settings():
 
 
 # fingerprint(small(), "optimized") computed at commit f503995, before plan_clusters existed,
-# when paper.toml's guidance.replan_budget_s was 0.25 (it is 1.0 since commit 8a05357)
+# when paper.toml's guidance.replan_budget_s was 0.25 (it is 1.0 since commit 8a05357) and
+# its description was PAPER_DESCRIPTION_THEN (the description is hashed too; it cites the
+# paper by key since the paper numbers left the repository)
 PAPER_SMALL_FINGERPRINT = "ef13a88e7f43c7c662d0e9dbe8aad1cf4a46333073f606a6340a8d988bc22991"
+PAPER_DESCRIPTION_THEN = "Paper 004 Sec. VI: 4 targets, 5 obstacles, optimized UAV, Lambda = 1"
 
 
 def test_new_settings_are_in_the_fingerprint_unless_they_keep_the_old_behaviour():
     """One plan from the mean (plan_clusters = 1, what every campaign before the setting
     did) leaves the fingerprint as it was before the setting existed, so those campaign
     folders still resume; two plans change it. The mission is taken with the re-plan
-    budget it had then (0.25 s): a changed budget is a changed setting, and changes it too."""
+    budget it had then (0.25 s): a changed budget is a changed setting, and changes it too;
+    and with the description it had then, which is hashed as well."""
     from uavsim.campaign import fingerprint
 
-    old = {"guidance.replan_budget_s": 0.25}
+    old = {"guidance.replan_budget_s": 0.25, "description": PAPER_DESCRIPTION_THEN}
     m = small(**old)
     assert m.filter.plan_clusters == 1
     assert fingerprint(m, "optimized") == PAPER_SMALL_FINGERPRINT

@@ -1,4 +1,4 @@
-"""Guidance Problem (P1), 004 Sec. IV: exactness against independent solvers, safety of
+"""Guidance Problem (P1) [Papaioannou2023, Sec. IV]: exactness against independent solvers, safety of
 the plans, and the bounds the solver relies on."""
 
 import dataclasses
@@ -458,7 +458,7 @@ def test_generated_worlds_plan_collision_free_into_their_goals(seed, tmp_path):
 
 
 def test_a_certified_plan_may_end_outside_its_goal_region_where_ending_inside_costs_more(tmp_path):
-    """Eq. (7) pulls a plan's end towards the goal's centroid softly (004 Sec. IV: "G_o^j is
+    """Eq. (7) pulls a plan's end towards the goal's centroid softly ([Papaioannou2023, Sec. IV]: "G_o^j is
     the centroid point of the goal region"), so P1's optimum need not end in the region.
     Generated world 15, target T3 (``benchmarks/worlds.py``): the certified plan ends 86 m
     from its region (Eq. 7 = 15 279 m^2).  A plan that ends inside exists: P1 with the

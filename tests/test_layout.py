@@ -296,3 +296,28 @@ def test_code_tests_and_benchmarks_name_nothing_outside_the_clone():
 
 def test_documents_name_nothing_outside_the_clone():
     assert stale_lines(documents=True) == []
+
+
+#: A paper cited by the number it had in the project's private reading list, 00N with N
+#: in 0-4, instead of its key ([Papaioannou2023, Eq. (8)], docs/references.md): "00N Sec.
+#: IV", "paper 00N's", "(00N)", "papers 00N-00N", "cf. 00N Fig. 5".  Such digits inside a
+#: number (0.00N, 1.00N, "27 00N", 10_00N, 2026-11-0N) are data, not a citation.
+CITED_BY_NUMBER = re.compile(r"(?<![\d.,:_/-])(?<!\d )\b00[0-4]\b(?![.,_:]?\d)")
+#: Lines (file, how the line starts) that must spell a number: paper.toml's description
+#: when the fingerprint tests/test_evaluation.py pins was computed, verbatim (the
+#: description is hashed into the fingerprint).
+VERBATIM = {("tests/test_evaluation.py", "PAPER_DESCRIPTION_THEN = ")}
+
+
+def test_papers_are_cited_by_key_not_by_number():
+    """A clone has docs/references.md, which resolves keys; the numbers resolve nowhere.
+    No file lists the numbers as a key (docs/references.md included), so no file is
+    excepted; one line is, a verbatim record (VERBATIM)."""
+    texts = tracked_texts()
+    verbatim = [(name, start) for name, start in VERBATIM
+                if any(line.startswith(start) for line in texts.get(name, "").splitlines())]
+    assert verbatim == sorted(VERBATIM), "VERBATIM names a line no file has"
+    found = [f"{name}:{n}: {line.strip()}" for name, text in texts.items()
+             for n, line in enumerate(text.splitlines(), 1)
+             if CITED_BY_NUMBER.search(line) and not any(name == f and line.startswith(s) for f, s in VERBATIM)]
+    assert found == []

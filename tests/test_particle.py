@@ -1,4 +1,4 @@
-"""Particle filter (004 Sec. V-A): Eq. (10) against its brute-force form, the filter
+"""Particle filter ([Papaioannou2023, Sec. V-A]): Eq. (10) against its brute-force form, the filter
 against an exact Kalman filter, resampling and moments by hand."""
 
 import math

@@ -1,4 +1,4 @@
-"""The closed-loop PCRLB (uavsim/bounds/pcrlb.py): the IRF of 004's bearing scan and the recursion.
+"""The closed-loop PCRLB (uavsim/bounds/pcrlb.py): the IRF of [Papaioannou2023]'s bearing scan and the recursion.
 
 The IRF is checked three independent ways: its exact limits, a Monte Carlo of the score
 through the simulator's own sensor (``sensing.observe``) and set likelihood
@@ -31,7 +31,7 @@ from uavsim.sensing import Sensor, bearing, observe, wrap_angle
 from uavsim.targets import Dynamics, transition_matrices
 
 DEG = np.pi / 180
-A6 = transition_matrices(1.0, 0.2, 1300.0)[0]  # 004 Eq. (2), Sec. VI-A: dt 1 s, eps 0.2
+A6 = transition_matrices(1.0, 0.2, 1300.0)[0]  # [Papaioannou2023, Eq. (2), Sec. VI-A]: dt 1 s, eps 0.2
 H4 = [0, 1, 3, 4]  # [x, y, vx, vy]
 A4 = A6[np.ix_(H4, H4)]
 Q4, P04 = np.diag([30.0, 30, 3, 3]), np.diag([200.0, 200, 20, 20])  # Sec. VI-A without z
@@ -133,7 +133,7 @@ def test_recursion_equals_the_batch_fisher_information_on_3_steps():
 
 
 def test_paper_model_equals_its_horizontal_subsystem():
-    """004's 6-D model with 1e-10 z variances: the (x, y, vx, vy) block of the bound is that
+    """[Papaioannou2023]'s 6-D model with 1e-10 z variances: the (x, y, vx, vy) block of the bound is that
     of the 4-D subsystem (A, Q, Sigma_0 decouple z), through the public driver."""
     rng = np.random.default_rng(5)
     q6 = np.diag([30.0, 30, 1e-10, 3, 3, 1e-10])
@@ -153,7 +153,7 @@ def test_paper_model_equals_its_horizontal_subsystem():
 def test_one_step_closed_form_with_fixed_sensors():
     """Sensors due south (range r1) and due west (range r2) of a target: h1 = (1/r1, 0),
     h2 = (0, -1/r2), so after one step P_xy = diag(1 / (1/250 + q2 / (sigma r1)^2),
-    1 / (1/250 + q2 / (sigma r2)^2)); P-_xy = diag(200 + 20 + 30) for 004's A, Q, Sigma_0.
+    1 / (1/250 + q2 / (sigma r2)^2)); P-_xy = diag(200 + 20 + 30) for [Papaioannou2023]'s A, Q, Sigma_0.
     Two trials with one sensor each average to half of each term."""
     sensor = Sensor(1 * DEG, 0.95, 1.0)
     q2 = information_reduction_factor(sensor.sigma, sensor.p_detect, sensor.clutter_rate)

@@ -1,6 +1,6 @@
 """PL-MMSE under Gaussian-mixture noise and its baselines ([Li2022] Sec. 2, Table 1).
 
-Hand steps use 002's test geometry (``tests/test_plkf.py``): prediction ``x- = [10, 0, 1, 0]``,
+Hand steps use [Huang2021]'s test geometry (``tests/test_plkf.py``): prediction ``x- = [10, 0, 1, 0]``,
 ``P- = I``, observer ``s = (-10, 0)``, measured bearing 0.1 rad, a one-component mixture
 with sigma 0.05 rad.  The predicted bearing is 0 and the predicted range 20 m.
 """
@@ -97,8 +97,8 @@ def test_pl_mmse_gain_against_monte_carlo():
 
 @pytest.mark.parametrize("kind, update", [("plkf", plkf.plkf_update), ("bc-plkf", plkf.bc_plkf_update),
                                           ("ivkf", plkf.iv_plkf_update)])
-def test_baselines_are_002_filters_with_sigma2_replaced_by_e_sin2(kind, update):
-    """The baselines under GM noise: 002's updates with sigma^2 = E sin^2 e (plmmse docstring)."""
+def test_baselines_are_huang2021_filters_with_sigma2_replaced_by_e_sin2(kind, update):
+    """The baselines under GM noise: [Huang2021]'s updates with sigma^2 = E sin^2 e (plmmse docstring)."""
     gm = GaussianMixture([0.4, 0.6], [0.1**2, 0.5**2])
     x, p, _ = UPDATES[kind](X, P, B, S, gm)
     x2, p2, _ = update(X, P, B, S, np.sqrt(gm.mean_sin2()))

@@ -1,4 +1,4 @@
-"""Bearing sensor (004 Eq. 4, Sec. III-C): convention by hand, statistics with seeds.
+"""Bearing sensor ([Papaioannou2023, Eq. (4), Sec. III-C]): convention by hand, statistics with seeds.
 
 Statistical tolerances are 5 standard errors of the estimator for the sample size used,
 so a correct sensor fails with probability below 1e-6 per check.

@@ -106,7 +106,7 @@ def test_cli_takes_a_name_from_any_folder(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     assert main(["validate", "paper_constrained"]) == 0
     first = capsys.readouterr().out.splitlines()[0]
-    assert first.startswith(f"mission   {missions_folder() / 'paper_constrained.toml'}  (Paper 004")
+    assert first.startswith(f"mission   {missions_folder() / 'paper_constrained.toml'}  ([Papaioannou2023, Sec. VI-B")
     assert main(["validate", "nosuch"]) == 2
     err = capsys.readouterr().err.splitlines()
     assert len(err) == 1 and err[0].startswith("error: nosuch: (file): file not found, nor a shipped mission (")

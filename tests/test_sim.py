@@ -1,4 +1,4 @@
-"""Closed loop (004 Sec. V-VI): determinism, seeding, manoeuvres, the commands."""
+"""Closed loop ([Papaioannou2023, Sec. V-VI]): determinism, seeding, manoeuvres, the commands."""
 
 import json
 
@@ -220,7 +220,7 @@ CLUTTER_FREE = ROOT / "missions" / "paper_clutterfree.toml"
 
 @pytest.mark.parametrize("kind", ["plkf", "bc-plkf", "iv-plkf", "ub-plkf", "vc-plkf"])
 def test_pseudo_linear_filters_in_the_closed_loop(kind):
-    """002's filters in place of particles (clutter-free): finite beliefs, symmetric
+    """[Huang2021]'s filters in place of particles (clutter-free): finite beliefs, symmetric
     positive semi-definite covariances, no particles in the step record."""
     m = load_mission(CLUTTER_FREE, {"filter.kind": kind, "steps": 3})
     from uavsim.sim import Simulation

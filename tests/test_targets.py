@@ -1,4 +1,4 @@
-"""Target dynamics (004 Eq. 1-2) and open-loop moments (Eq. 6) against hand values."""
+"""Target dynamics ([Papaioannou2023, Eq. (1)-(2)]) and open-loop moments (Eq. 6) against hand values."""
 
 import numpy as np
 

@@ -1,4 +1,4 @@
-"""UAV moves (004 Eq. 3) and their admission, counted by hand."""
+"""UAV moves ([Papaioannou2023, Eq. (3)]) and their admission, counted by hand."""
 
 import numpy as np
 

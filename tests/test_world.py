@@ -1,4 +1,4 @@
-"""World geometry (004 Sec. III-D, Eq. 5): hand-derived points and segments."""
+"""World geometry ([Papaioannou2023, Sec. III-D, Eq. (5)]): hand-derived points and segments."""
 
 import numpy as np
 import pytest
@@ -100,7 +100,7 @@ AREA_LO, AREA_HI = np.array([0.0, 0.0]), np.array([100.0, 100.0])
 
 
 def test_ground_footprints_by_hand():
-    """margin 9, band 1: kept when z_min - 9 < -1 and z_max + 9 > 1 (004 via the guidance model)."""
+    """margin 9, band 1: kept when z_min - 9 < -1 and z_max + 9 > 1 ([Papaioannou2023] via the guidance model)."""
     lo = np.array([[0, 0, 0], [0, 0, 5], [0, 0, 15], [0, 0, -30], [0, 0, 7.9]], dtype=float)
     hi = np.array([[10, 20, 60], [10, 20, 60], [10, 20, 60], [10, 20, -12], [10, 20, 60]], dtype=float)
     kept, f_lo, f_hi = ground_footprints(lo, hi, 9.0)

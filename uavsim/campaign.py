@@ -351,6 +351,10 @@ def _manifest(mission: Mission, planner: str) -> dict:
 
 
 COMPARED = ("planner", "steps", "seed", "fingerprint")  # manifest keys that must match to resume
+#: Settings hashed into the fingerprint that change no trial: a folder whose manifest
+#: differs from this run only in them holds this run's campaign (a mission whose
+#: description was reworded keeps its folders).
+COSMETIC = frozenset({"description"})
 
 
 def _existing(out: Path) -> tuple[dict, list[Path]] | None:
@@ -378,6 +382,10 @@ def _difference(old: dict, new: dict) -> str:
                 f"this one writes {FORMAT}")
     if all(old.get(k) == new[k] for k in COMPARED):
         return ""
+    if isinstance(old.get("settings"), dict) and all(old.get(k) == new[k] for k in COMPARED if k != "fingerprint"):
+        a, b = old["settings"], new["settings"]
+        if {k for k in {*a, *b} if a.get(k, "(none)") != b.get(k, "(none)")} <= COSMETIC:
+            return ""
 
     def shown(v) -> str:
         text = v if isinstance(v, str) else json.dumps(v)

@@ -583,7 +583,7 @@ def build_parser() -> argparse.ArgumentParser:
     from .studies.huang2021_scenarios import SCENARIOS
     from .studies.li2022 import SCENARIOS as LI2022
 
-    tma = sub.add_parser("tma", help="the estimator library ([Huang2021], [Li2022], [Oh2021], [Oliva2021])")
+    tma = sub.add_parser("tma", help="the estimator library: [Huang2021], [Li2022], [Oh2021], [Oliva2021]")
     tma = tma.add_subparsers(dest="tma", required=True)
     p = tma.add_parser("reproduce", help="a paper's simulation study; writes DIR/result.json and figures")
     p.add_argument("name", choices=(*SCENARIOS, *LI2022, "oh2021", "oliva2021"),
@@ -593,8 +593,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=2021, help="run r uses SeedSequence(seed).spawn(runs)[r]")
     p.add_argument("--out", help="output folder (default runs/<name>)")
     p.add_argument("--sigma-scale", metavar="RHO[,RHO...]",
-                   help="li2022 only: also sweep the bearing-noise scale rho ([Li2022, Figs. 4, 8, 12]; the paper: "
-                   "1..10)")
+                   help="li2022 only: also sweep the bearing-noise scale rho ([Li2022, Figs. 4, 8, 12]; "
+                   "the paper: 1..10)")
     p.add_argument("--targets", help="oh2021: targets, e.g. 1,2,3 (default all)")
     p.add_argument("--sigmas", help="oh2021: noise std (deg) of the K = 600 sweep (default 0.1,0.3,...,1.9)")
     p.add_argument("--scans", help="oh2021: scan counts K of the 0.5 deg sweep (default 100,200,...,600)")
@@ -605,9 +605,9 @@ def build_parser() -> argparse.ArgumentParser:
                    "(differential evolution, then the local solver)")
     p.add_argument("--vary", choices=("noise", "start"),
                    help="oliva2021: a new noise draw per run (default) or one draw and a new start per run "
-                   "(Oliva2021's '100 instances with random initial choice')")
+                   "([Oliva2021]'s '100 instances with random initial choice')")
     p.add_argument("--generations", type=int, help="oliva2021 --solver global: differential evolution's "
-                   "generations of 90 members (default 300, about 27 000 evaluations; Oliva2021's MIDACO: 1e6)")
+                   "generations of 90 members (default 300, about 27 000 evaluations; [Oliva2021]'s MIDACO: 1e6)")
     p.set_defaults(func=cmd_tma_reproduce)
 
     world = sub.add_parser("world", help="worlds and missions").add_subparsers(dest="world", required=True)

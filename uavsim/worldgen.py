@@ -57,7 +57,7 @@ MAX_OBSTACLES, MAX_TARGETS = 15, 8
 @dataclass(frozen=True, eq=False)
 class Settings:
     """The settings written into every generated mission: the declared defaults (the
-    paper's, 004 Sec. VI-A; :mod:`uavsim.declare`), except ``trials`` (10: a generated
+    paper's, [Papaioannou2023, Sec. VI-A]; :mod:`uavsim.declare`), except ``trials`` (10: a generated
     world is for a first look; ``--trials`` sets more) and, for a city, the first plans'
     ``time_limit_s`` (:data:`CITY_TIME_LIMIT_S`).  A world's own UAV start, altitude,
     region, manoeuvre sizes and fixed sensors are drawn per world."""
@@ -471,7 +471,8 @@ def mission_toml(g: Generated, world_ref: str, command: str = "") -> str:
     targets = [(f"T{i + 1}", np.r_[p, v], s.cov0, g.goal_names[goal])
                for i, (p, v, goal) in enumerate(zip(g.target_positions, g.target_velocities, g.target_goals))]
     comments = (f"Generated mission{f' ({command})' if command else ''}.",
-                "Every setting is the declared default (the paper mission's, 004 Sec. VI-A) but the world's own.",
+                "Every setting is the declared default (the paper mission's, [Papaioannou2023, Sec. VI-A]) "
+                "but the world's own.",
                 f"Every goal is within {REACH_FRACTION:g} x T dt v_max = {s.reach:g} m of free path from its targets.")
     lengths = tuple(f"free-space shortest path to the goal's centre: {length:.0f} m" for length in g.route_lengths)
     return mission_text(world_ref, top, s.dynamics, s.sensor, uav, s.guidance, s.filter, planner, targets,

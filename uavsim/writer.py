@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -135,7 +136,8 @@ def reference() -> str:
         for spec in declared:
             default = ("required" if spec.required else f"derived: {spec.derived}" if spec.derived
                        else f"`{value_text(spec.default)}`")
-            out.append(f"| {spec.key} | {spec.unit} | {default} | {spec.range_text()} | {spec.doc} |")
+            doc = re.sub(r"\[([A-Z][A-Za-z]+\d{4})(?=[],])", r"[[\1](references.md)", spec.doc)  # key -> link
+            out.append(f"| {spec.key} | {spec.unit} | {default} | {spec.range_text()} | {doc} |")
         out.append("")
     return "\n".join(out)
 

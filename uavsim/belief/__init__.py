@@ -8,7 +8,8 @@ the pseudo-posterior covariance traces the UAV's candidate positions would give
 
 * ``particle`` (:mod:`.particle`, the paper's): particle filters with the clutter
   likelihood;
-* one of 002's pseudo-linear Kalman filters (:mod:`.gaussian`), clutter-free missions only.
+* one of [Huang2021]'s pseudo-linear Kalman filters (:mod:`.gaussian`), clutter-free missions
+  only.
 """
 
 from __future__ import annotations
@@ -30,17 +31,18 @@ KINDS = ("particle", *FILTERS)
 
 @dataclass(frozen=True)
 class FilterConfig:
-    """The estimator: ``kind = "particle"`` (004 Sec. V-A, the default) or one of 002's
-    pseudo-linear Kalman filters (clutter-free sensors only); particle settings.
+    """The estimator: ``kind = "particle"`` ([Papaioannou2023, Sec. V-A], the default) or
+    one of [Huang2021]'s pseudo-linear Kalman filters (clutter-free sensors only); particle
+    settings.
 
-    ``plan_clusters``: 1, every particle moves by the plan from the posterior mean (004
-    Sec. V; the paper's missions say so); 2 (the default for particles), the cloud is split
-    in two (:func:`.particle.halves`) and each half moves by the plan from its own mean
-    (particle filters only; see :mod:`uavsim.sim`)."""
+    ``plan_clusters``: 1, every particle moves by the plan from the posterior mean
+    ([Papaioannou2023, Sec. V]; the paper's missions say so); 2 (the default for
+    particles), the cloud is split in two (:func:`.particle.halves`) and each half moves by
+    the plan from its own mean (particle filters only; see :mod:`uavsim.sim`)."""
 
     kind: str = setting("kind", "particle", choices=KINDS,
-                        doc="the estimator: particle filters (004 Sec. V-A) or a pseudo-linear Kalman filter of 002 "
-                            "(clutter-free sensors only)")
+                        doc="the estimator: particle filters ([Papaioannou2023, Sec. V-A]) or a pseudo-linear "
+                            "Kalman filter of [Huang2021] (clutter-free sensors only)")
     particles: int = setting("particles", 5000, lo=10, hi=1_000_000, doc="particles per target (particle filter)")
     resample_threshold: float = setting("resample_threshold", 0.5, lo=0, hi=1,
                                         doc="resample when the effective sample size < threshold x particles")

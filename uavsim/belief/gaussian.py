@@ -1,10 +1,10 @@
-"""Gaussian beliefs: 002's pseudo-linear Kalman filters in place of particles.
+"""Gaussian beliefs: [Huang2021]'s pseudo-linear Kalman filters in place of particles.
 
 M targets tracked by one of [Huang2021]'s filters (``filter.kind``;
 clutter-free missions only, enforced by the mission validation).  The 6-D state
 ``[x, y, z, vx, vy, vz]`` is predicted exactly (Eq. 9a in moments, :meth:`Dynamics.predict`);
-a detection updates it with 002's pseudo-linear step on the horizontal position
-``(0, 1)`` and velocity ``(3, 4)``.  Bearings convert at this edge: 002 measures from +x
+a detection updates it with [Huang2021]'s pseudo-linear step on the horizontal position
+``(0, 1)`` and velocity ``(3, 4)``.  Bearings convert at this edge: [Huang2021] measures from +x
 anticlockwise, ``beta = pi/2 - phi``.  A channel without a detection keeps its prediction;
 a degenerate update is skipped and reported.  VC-PLKF bounds the horizontal speed to
 ``[0, v_max]`` (the guidance speed limit).  The UAV's decision uses Eq. (12)-(13)

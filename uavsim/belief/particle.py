@@ -372,7 +372,7 @@ def scan_loglik(scan: Scan, particles: np.ndarray, observer: np.ndarray, sensor:
 
 
 class ParticleBelief:
-    """The :class:`uavsim.belief.Belief` of 004 Sec. V-A: M particle filters with the
+    """The :class:`uavsim.belief.Belief` of [Papaioannou2023, Sec. V-A]: M particle filters with the
     clutter likelihood, systematic resampling (and roughening) when the ESS is low, and the
     pseudo-posterior traces of Eq. (12) for the UAV's decision."""
 

@@ -2,7 +2,7 @@
 
 For each target j of [Papaioannou2023], along the flown sensor path, the bound
 ``P_k = J_k^-1`` on the error covariance of any estimator of ``x_k`` from all scans up to
-k, with the missed detections and Poisson clutter of Eq. (4).  Bearings follow 004:
+k, with the missed detections and Poisson clutter of Eq. (4).  Bearings follow [Papaioannou2023]:
 ``l(x, s) = atan2(dx, dy)`` from +y (north), clockwise, ``d = x - s``.
 
 **Recursion.** Target model Eq. (1)-(2): ``x_{k+1} = A x_k + B u_k + v_k``,
@@ -84,7 +84,7 @@ z (as the paper's do) the (x, y) block equals that of the 4-D subsystem [x, y, v
 
 **Output.** ``sqrt(tr)`` of the (x, y) block bounds the position RMSE of target j at
 step k; its mean over targets is comparable with the ``rmse`` curve of a campaign summary
-(004 Sec. VI-B: per target ``sqrt(mean over trials |error|^2)``, averaged over targets).
+([Papaioannou2023, Sec. VI-B]: per target ``sqrt(mean over trials |error|^2)``, averaged over targets).
 
 **Which truth it bounds.** The recursion is the bound of the model it is given: A, Q and
 controls known to the estimator.  The simulator's truths are not that model: their
@@ -196,7 +196,7 @@ def information_reduction_factor(sigma: float, p_detect: float, clutter_rate: fl
 
 # --------------------------------------------------------------------------- measurement information
 def bearing_gradients(targets: np.ndarray, observers: np.ndarray, min_range: float = 0.0) -> np.ndarray:
-    """``d l / d(x, y)`` of the 004 bearing ``atan2(dx, dy)``: ``(dy, -dx) / r^2``.
+    """``d l / d(x, y)`` of the [Papaioannou2023] bearing ``atan2(dx, dy)``: ``(dy, -dx) / r^2``.
 
     Parameters
     ----------

@@ -20,7 +20,7 @@ its edge.
 import importlib
 
 # name -> module: each is imported on first use (PEP 562), so that the simulator, which
-# takes the filters of .plkf, does not import 000's solvers (scipy.optimize) with them
+# takes the filters of .plkf, does not import [Oliva2021]'s solvers (scipy.optimize) with them
 _EXPORTS = {
     "CONVENTIONS": "api", "PLKF": "api", "PLMMSE": "api", "ConstrainedMLE": "api", "DegenerateUpdateWarning": "api",
     "convert": "api", "Disc": "intelligence", "BatchTMA": "nrpso", "GaussianMixture": "plmmse",

@@ -10,11 +10,12 @@ Batch estimators (:class:`uavsim.estimators.nrpso.BatchTMA`) ``fit(times, bearin
 observers) -> self`` with ``x_``, ``cov_``, ``converged_`` and ``predict(times)``.
 
 **Bearings** are in radians, in one of two conventions named by ``convention=``:
-``"north-cw"`` (from +y, clockwise, ``atan2(dx, dy)``: the simulator's and paper 003's)
-or ``"east-ccw"`` (from +x, anticlockwise, ``atan2(dy, dx)``: papers 000-002's); each is
-converted once, here, to the convention of the code behind.  ``units="deg"`` takes
-bearings and ``sigma`` in degrees on purpose; otherwise a bearing outside [-pi, pi] or a
-``sigma`` above 0.5 rad is refused as probably degrees.  State ``[px, py, vx, vy]`` (m, m/s).
+``"north-cw"`` (from +y, clockwise, ``atan2(dx, dy)``: the simulator's and [Oh2021]'s)
+or ``"east-ccw"`` (from +x, anticlockwise, ``atan2(dy, dx)``: [Oliva2021]'s, [Li2022]'s,
+[Huang2021]'s); each is converted once, here, to the convention of the code behind.
+``units="deg"`` takes bearings and ``sigma`` in degrees on purpose; otherwise a bearing
+outside [-pi, pi] or a ``sigma`` above 0.5 rad is refused as probably degrees.  State
+``[px, py, vx, vy]`` (m, m/s).
 """
 
 from __future__ import annotations
@@ -124,7 +125,7 @@ class _Recursive:
     """What :class:`PLKF` and :class:`PLMMSE` share: the state, predict / update, a
     whole sequence through :meth:`filter`, and the count of degenerate updates."""
 
-    internal = "east-ccw"  # papers 001-002: the code behind takes bearings from +x
+    internal = "east-ccw"  # [Li2022], [Huang2021]: the code behind takes bearings from +x
 
     def __init__(self, x0, P0, q, dt: float, convention: str, units: str):  # noqa: N803 (the papers' P)
         _check("convention", convention, CONVENTIONS)

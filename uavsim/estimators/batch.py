@@ -5,20 +5,21 @@ For a target whose position is linear in its parameters ``theta (n,)``,
 acceleration: ``n = 6``, :func:`polynomial_basis`), seen from observer positions
 ``o_k`` with bearings ``z_k = h_k(theta) + N(0, sigma_k^2)``:
 
-* bearing (internal convention, as 000 Eq. 3 and 002 Eq. 5): ``h_k = atan2(dy, dx)``, from
-  +x anticlockwise, ``d_k = Phi_k theta - o_k``.  Paper modules convert at their edge
-  (003, from north clockwise: ``h = pi/2 - theta_north``, :mod:`.nrpso`).
+* bearing (internal convention, as [Oliva2021, Eq. (3)] and [Huang2021, Eq. (5)]):
+  ``h_k = atan2(dy, dx)``, from +x anticlockwise, ``d_k = Phi_k theta - o_k``.  Paper
+  modules convert at their edge ([Oh2021], from north clockwise: ``h = pi/2 - theta_north``,
+  :mod:`.nrpso`).
 * residual, wrapped to (-pi, pi]: ``e_k = z_k - h_k = atan2(s_k, c_k)`` with
   ``u_k = (cos z_k, sin z_k)``, ``c_k = u_k . d_k``, ``s_k = u_k,y d_x - u_k,x d_y``.
   ``s``, ``c`` and ``d`` are linear in ``theta``: one matrix product per run gives them
   (:class:`BearingData` holds the matrices).
-* negative log-likelihood ``lam = 1/2 sum_k e_k^2 / sigma_k^2`` (000 Eq. 10; 003's cost
-  Eq. 5 is ``J = 2 lam``).
+* negative log-likelihood ``lam = 1/2 sum_k e_k^2 / sigma_k^2`` ([Oliva2021, Eq. (10)];
+  [Oh2021]'s cost Eq. 5 is ``J = 2 lam``).
 * gradient ``M = d lam / d theta = -sum_k g_k e_k / sigma_k^2`` with
-  ``g_k = dh_k / dtheta = Phi_k^T rho_k``, ``rho_k = (-dy, dx) / r_k^2`` (003 Eq. 7, 000
-  Appendix A).
+  ``g_k = dh_k / dtheta = Phi_k^T rho_k``, ``rho_k = (-dy, dx) / r_k^2`` ([Oh2021, Eq. (7)],
+  [Oliva2021, Appendix A]).
 * Fisher information ``F = sum_k g_k g_k^T / sigma_k^2 = sum_k Phi_k^T rho_k rho_k^T Phi_k
-  / sigma_k^2``: the Gauss-Newton matrix of ``lam`` and 000 Eq. (16); at the truth its
+  / sigma_k^2``: the Gauss-Newton matrix of ``lam`` and [Oliva2021, Eq. (16)]; at the truth its
   inverse is the CRLB.  Three products ``rho_x^2, rho_x rho_y, rho_y^2`` per scan times
   fixed matrices of ``Phi``; for a polynomial track most of those matrices' entries are
   zero and are skipped (10 multiply-adds per scan for n = 4).
@@ -39,8 +40,8 @@ import numpy as np
 def polynomial_basis(times, order: int = 1, t_ref: float | None = None) -> np.ndarray:
     """``Phi (K, 2, 2 (order + 1))`` of a polynomial track in ``tau = t - t_ref``:
     ``p = sum_m theta_m tau^m / m!`` with ``theta_m = (x_m, y_m)``, so order 1 (constant
-    velocity) has ``theta = [px, py, vx, vy]`` (003 Eq. 1-2) and order 2 (constant
-    acceleration) ``[x0, y0, vx, vy, ax, ay]`` (000 Eq. 11-12).  ``t_ref`` defaults to
+    velocity) has ``theta = [px, py, vx, vy]`` ([Oh2021, Eq. (1)-(2)]) and order 2 (constant
+    acceleration) ``[x0, y0, vx, vy, ax, ay]`` ([Oliva2021, Eq. (11)-(12)]).  ``t_ref`` defaults to
     ``times[0]``: theta is the state at the first scan."""
     t = np.asarray(times, float)
     if t.ndim != 1 or len(t) == 0 or not np.isfinite(t).all():
@@ -213,7 +214,7 @@ class Evaluator:
         return 0.5 * (e @ self.data.weights[rs, :, None])[..., 0]
 
     def nll(self, theta) -> np.ndarray:
-        """``lam (R, P)``, 000 Eq. (10)."""
+        """``lam (R, P)``, [Oliva2021, Eq. (10)]."""
         theta = _check(self.data, theta)
         out = np.empty(theta.shape[:2])
         for rs, ps in self._blocks(*theta.shape[:2]):
@@ -265,7 +266,7 @@ def residuals(data: BearingData, theta) -> np.ndarray:
 
 
 def nll(data: BearingData, theta) -> np.ndarray:
-    """``lam = 1/2 sum_k e_k^2 / sigma_k^2 (R, P)``, 000 Eq. (10) (003 Eq. 5: ``J = 2 lam``)."""
+    """``lam = 1/2 sum_k e_k^2 / sigma_k^2 (R, P)``, [Oliva2021, Eq. (10)] ([Oh2021, Eq. (5)]: ``J = 2 lam``)."""
     return Evaluator(data).nll(theta)
 
 
@@ -278,14 +279,14 @@ def derivatives(data: BearingData, theta, hessian: bool = False):
 
 
 def fisher(data: BearingData, theta) -> np.ndarray:
-    """Fisher information ``F (R, P, n, n)`` at ``theta`` (000 Eq. 16); it does not depend
+    """Fisher information ``F (R, P, n, n)`` at ``theta`` ([Oliva2021, Eq. (16)]); it does not depend
     on the measured bearings."""
     return derivatives(data, theta)[2]
 
 
 def crlb(phi, observer, theta, sigma) -> np.ndarray:
     """The CRLB ``F(theta)^-1 (n, n)`` of an unbiased estimate of ``theta`` from bearings
-    with std ``sigma`` (rad, scalar or ``(K,)``) (000 Sec. 2.5; 003's bound)."""
+    with std ``sigma`` (rad, scalar or ``(K,)``) ([Oliva2021, Sec. 2.5]; [Oh2021]'s bound)."""
     theta = np.asarray(theta, float)
     d = np.asarray(phi, float) @ theta - np.asarray(observer, float)
     data = prepare(phi, observer, np.arctan2(d[:, 1], d[:, 0]), np.broadcast_to(sigma, (len(d),))[None])
@@ -371,7 +372,7 @@ def gauss_newton(data: BearingData, theta0, max_iter: int = 50, tol: float = 1e-
                  hessian: bool = False) -> NewtonResult:
     """Newton-Raphson on ``lam`` for every run from ``theta0 (R, n)``:
     ``theta <- theta - A^-1 M`` with ``A`` the Fisher information (Gauss-Newton, Fisher
-    scoring) or, with ``hessian=True``, the full Hessian (003 Eq. 6-7).  No line search and
+    scoring) or, with ``hessian=True``, the full Hessian ([Oh2021, Eq. (6)-(7)]).  No line search and
     no bounds, as in the paper.  A run stops when the step's predicted decrease
     ``1/2 |M^T A^-1 M|`` is at most ``tol`` (in units of ``lam``; the noise moves ``lam`` by
     about ``n / 2``), after ``max_iter`` steps, or when ``A`` is singular or not finite.

@@ -1,4 +1,4 @@
-"""Equality constraints on a state estimate, batched over runs (paper 001, Sec. 3-4).
+"""Equality constraints on a state estimate, batched over runs ([Li2022, Sec. 3-4]).
 
 [Li2022]: the mean-square method (Eq. 25-32) and the estimate projection
 (Eq. 33-38) for linear constraints ``G x = g`` (Simon & Chia, its ref. [33]); the linear

@@ -39,7 +39,7 @@ from .batch import BearingData, Evaluator, cholesky_solve, spd_inverse
 
 @dataclass(frozen=True)
 class Disc:
-    """A disc with ``centre (2,)`` (m) and ``radius`` (m): 000 Table 1's sets."""
+    """A disc with ``centre (2,)`` (m) and ``radius`` (m): [Oliva2021, Table 1]'s sets."""
 
     centre: tuple[float, float]
     radius: float
@@ -58,7 +58,7 @@ class Disc:
 
 @dataclass(frozen=True)
 class Intelligence:
-    """000 Eq. (4)-(5): the target is inside every disc of ``inside`` (their intersection
+    """[Oliva2021, Eq. (4)-(5)]: the target is inside every disc of ``inside`` (their intersection
     must not be empty) and outside every disc of ``outside``.
 
     As arrays over the S sets, inside first: ``centres (S, 2)``, ``radii (S,)``,
@@ -113,7 +113,7 @@ class Intelligence:
 @dataclass(frozen=True, eq=False)
 class TrackConstraints:
     """:class:`Intelligence` imposed on a track ``p_k = phi_k theta`` at the ``Kc``
-    constraint times (000 Eq. 13-14): ``phi (Kc, 2, n)``.  The constraint ``j`` is the pair
+    constraint times ([Oliva2021, Eq. (13)-(14)]): ``phi (Kc, 2, n)``.  The constraint ``j`` is the pair
     (time k, set s); arrays of them are ``(..., Kc, S)``."""
 
     intelligence: Intelligence
@@ -210,7 +210,7 @@ class Result:
 
 def solve(data: BearingData, theta0, constraints: TrackConstraints | None = None,
           settings: Settings = Settings()) -> Result:
-    """The MLE of 000 Eq. (10), or with ``constraints`` the constrained MLE of Eq. (14),
+    """The MLE of [Oliva2021, Eq. (10)], or with ``constraints`` the constrained MLE of Eq. (14),
     for every run and start ``theta0 (R, P, n)`` or ``(R, n)``.
 
     Unconstrained: Levenberg-Marquardt on all runs and starts at once
@@ -283,7 +283,7 @@ def slsqp(data: BearingData, theta: np.ndarray, constraints: TrackConstraints,
     metres and m/s^2 unscaled span twelve decades and SLSQP stalls).
 
     One problem at a time (scipy solves one; about 10 iterations and 0.02 s per problem
-    for 000's study).  Why not a batched augmented Lagrangian: tried first, its
+    for [Oliva2021]'s study).  Why not a batched augmented Lagrangian: tried first, its
     Levenberg-Marquardt inner problems stall where the active constraint switches between
     sample times along a curved circle, and stopped up to 1.6 standard deviations short of
     the optimum SLSQP finds (5 of 8 runs of the APF geometry; docs/results/oliva2021.md).
@@ -349,7 +349,7 @@ class ConstrainedBound:
 
 
 def constrained_crlb(bound, gradients, values, tol: float = 0.0, rcond: float = 1e-9) -> ConstrainedBound:
-    """000 Sec. 2.6: ``C - C F (F^T C F)^-1 F^T C`` with ``C = J^-1`` the unconstrained
+    """[Oliva2021, Sec. 2.6]: ``C - C F (F^T C F)^-1 F^T C`` with ``C = J^-1`` the unconstrained
     bound ``bound (n, n)`` and ``F`` the generalised Jacobian of ``max(g, 0)``, from the
     constraints' gradients ``(..., n)`` and values ``(...)`` at the point (e.g.
     :meth:`TrackConstraints.jacobian` and ``.values`` at the truth).
@@ -397,7 +397,7 @@ def constrained_crlb(bound, gradients, values, tol: float = 0.0, rcond: float = 
 
 
 def apf_force(intelligence: Intelligence, weighting: str = "area", at=(0.0, 0.0)) -> np.ndarray:
-    """000 Sec. 2.7: the artificial potential field's force ``f (2,)`` at ``at`` (the
+    """[Oliva2021, Sec. 2.7]: the artificial potential field's force ``f (2,)`` at ``at`` (the
     ownship's start): ``f = sum_i alpha_i (x_i - p) - sum_i beta_i (y_i - p)`` with
     ``x_i``, ``y_i`` the centres of the inside and outside discs (the printed
     ``f(0) = sum alpha_i x_i - sum beta_i y_i``; the printed potential ``U`` has the
@@ -421,7 +421,7 @@ def apf_force(intelligence: Intelligence, weighting: str = "area", at=(0.0, 0.0)
 
 
 def heading(force) -> dict:
-    """The direction of ``force (2,)`` both ways 000 states it (rad): ``from_x`` (Eq. 18
+    """The direction of ``force (2,)`` both ways [Oliva2021] states it (rad): ``from_x`` (Eq. 18
     rotates the track anticlockwise from +x by gamma) and ``from_y`` (the text: "the angle
     between [0 1]^T and f", taken anticlockwise from +y)."""
     fx, fy = np.asarray(force, float)

@@ -131,7 +131,7 @@ class Window:
 
 @dataclass(frozen=True)
 class Problem:
-    """R runs of 003's problem in :mod:`.batch`'s convention: the data (float64) and the
+    """R runs of [Oh2021]'s problem in :mod:`.batch`'s convention: the data (float64) and the
     search area placed at each run's first scan."""
 
     data: BearingData
@@ -139,7 +139,7 @@ class Problem:
 
 
 def problem(times, bearings, observer_positions, sigma, area: SearchArea = SearchArea()) -> Problem:
-    """The one place where 003's bearings (rad, clockwise from north, Eq. 3) become
+    """The one place where [Oh2021]'s bearings (rad, clockwise from north, Eq. 3) become
     :mod:`.batch`'s (from +x anticlockwise): ``h = pi/2 - theta``.  ``times (K,)``,
     ``bearings (K,)`` or ``(R, K)``, ``observer_positions (K, 2)`` or ``(R, K, 2)``,
     ``sigma`` (rad) scalar or ``(R,)``.  The state is at ``times[0]``."""
@@ -164,13 +164,13 @@ def uniforms(rng, runs: int, shape: tuple) -> np.ndarray:
 
 def best_candidate(data: BearingData, window: Window, rng, n_candidates: int = 10_000,
                    screen: int = 8) -> tuple[np.ndarray, np.ndarray]:
-    """003 Sec. 3.2: the lowest-cost of ``n_candidates`` draws from the search area, per
+    """[Oh2021, Sec. 3.2]: the lowest-cost of ``n_candidates`` draws from the search area, per
     run: ``theta (R, 4)`` and its ``lam (R,)`` (in ``data``'s dtype).
 
     Exact screening (``screen > 1``): ``lam`` over every ``screen``-th scan is a lower bound
     of ``lam``; a candidate whose bound exceeds the full cost of the candidate with the
     lowest bound cannot be the best, so only the others are evaluated in full (1-30% of
-    them in 003's study).  ``screen=1`` evaluates every candidate in full."""
+    them in [Oh2021]'s study).  ``screen=1`` evaluates every candidate in full."""
     cand = window.sample(uniforms(rng, data.runs, (n_candidates, 4)))
     rows = np.arange(data.runs)
     full = Evaluator(data)
@@ -189,7 +189,7 @@ def best_candidate(data: BearingData, window: Window, rng, n_candidates: int = 1
 
 def newton_raphson(prob: Problem, rng, n_candidates: int = 10_000, max_iter: int = 50, tol: float = 1e-9,
                    hessian: bool = False, dtype=np.float32):
-    """003's NR: :func:`best_candidate` (evaluated in ``dtype``), then
+    """[Oh2021]'s NR: :func:`best_candidate` (evaluated in ``dtype``), then
     :func:`.batch.gauss_newton` (float64).  Returns its :class:`.batch.NewtonResult`."""
     start, _ = best_candidate(prob.data.astype(dtype), prob.window, rng, n_candidates)
     return gauss_newton(prob.data, start, max_iter=max_iter, tol=tol, hessian=hessian)
@@ -249,12 +249,12 @@ def swarm(prob: Problem, rng, n_particles: int = 400, n_iter: int = 50, alpha: f
 
 
 def pso(prob: Problem, rng, **settings) -> SwarmResult:
-    """003's PSO with the paper's settings (Sec. 3.3); keywords override them."""
+    """[Oh2021]'s PSO with the paper's settings (Sec. 3.3); keywords override them."""
     return swarm(prob, rng, **{"c_n": 0.0, **settings})
 
 
 def nrpso(prob: Problem, rng, **settings) -> SwarmResult:
-    """003's NRPSO with the paper's settings (Sec. 3.4, c_n = 0.1, N_thr = 1e-4)."""
+    """[Oh2021]'s NRPSO with the paper's settings (Sec. 3.4, c_n = 0.1, N_thr = 1e-4)."""
     return swarm(prob, rng, **{"c_n": 0.1, **settings})
 
 
@@ -262,7 +262,7 @@ METHODS = ("nr", "pso", "nrpso")
 
 
 class BatchTMA:
-    """Batch maximum-likelihood TMA of a constant-velocity target, 003's way, with a
+    """Batch maximum-likelihood TMA of a constant-velocity target, [Oh2021]'s way, with a
     scikit-learn face: settings here, :meth:`fit` on data, results in attributes.
 
     Parameters

@@ -35,7 +35,7 @@ The extracted text lost minus signs; re-derived here (and tested against hand st
   is an EKF that weighs each bearing as if its noise were ``sigma / |alpha|``:
   ``alpha = 1`` only when the origin projects onto the line of sight at the target
   (``u^ . x^ = 0``); elsewhere ``|alpha|`` over- or under-weights the bearings, by where
-  the origin happens to be.  This is why 002's ranking depends on the scenario's
+  the origin happens to be.  This is why [Huang2021]'s ranking depends on the scenario's
   coordinates (:mod:`uavsim.studies.huang2021_scenarios`: ``huang2021-scenario2`` against
   ``-scenario2-alt``).
 * Eq. (68) / Appendix A (VC): ``K*_v = K_v + (v / |v_k|k| - 1) v_k|k / eps``, i.e. the

@@ -1,7 +1,7 @@
-"""PL-MMSE under Gaussian-mixture noise and its pseudo-linear baselines (paper 001).
+"""PL-MMSE under Gaussian-mixture noise and its pseudo-linear baselines ([Li2022]).
 
 [Li2022] (Li, Tang, Zhang, Zou 2022), Sec. 2 and Table 1.  Bearings
-follow the paper (and 002): ``phi = atan2(ty - sy, tx - sx)`` from +x, anticlockwise
+follow the paper (and [Huang2021]): ``phi = atan2(ty - sy, tx - sx)`` from +x, anticlockwise
 (Eq. 3, printed as ``tan^-1`` of the ratio; atan2 keeps the quadrant).
 
 Model, batched over R runs like :mod:`.plkf` (``x (R, 4)``, ``P (R, 4, 4)``, bearings
@@ -37,7 +37,7 @@ Re-derived where the print is garbled (tested in ``tests/test_plmmse.py``):
   coefficient ``sum rho_i exp((exp(-2 xi_{i-1}^2)) / 2)`` is a garbled
   ``sum lambda_j (exp(-2 sigma_j^2) - 1) / 2 = -s2`` (bearing, not process, weights).
 * Table 1 step 6 prints ``K~_k``; it is ``P = P- - K K1^T`` with ``K = K1 / K2``.
-* The baselines PLKF (18)-(22), BC-PLKF and IVKF are 002's filters (:mod:`.plkf`, the
+* The baselines PLKF (18)-(22), BC-PLKF and IVKF are [Huang2021]'s filters (:mod:`.plkf`, the
   same references [23], [24]) with the bearing variance replaced by ``s2``: for a
   zero-mean symmetric ``e`` the pseudo-linear noise's variance is ``r^2 s2`` and the
   bias of ``H^T`` times it is exactly ``-s2 (x(pos) - s)``, so ``s2`` is the one second

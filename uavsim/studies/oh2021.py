@@ -1,6 +1,6 @@
 """The simulation study of [Oh2021] (Oh, Shi, Choi 2021), Sec. 2 and 4.
 
-Scenario (Sec. 2, Table 1), in 003's frame (x east, y north, bearings clockwise from
+Scenario (Sec. 2, Table 1), in [Oh2021]'s frame (x east, y north, bearings clockwise from
 north): 600 s; K = 100..600 scans at ``t_k = (k - 1) 600 / K``; the observer starts at
 the origin heading north (0 deg) at 3 m/s, turns clockwise at 0.6 deg/s from 200 s to
 300 s (to 60 deg), then runs straight.  Targets (constant velocity, state at t = 0):
@@ -74,7 +74,7 @@ def truth(target: int, t) -> np.ndarray:
 
 
 def bearings(target: int, t) -> np.ndarray:
-    """True bearings (K,), rad clockwise from north (003 Eq. 3): ``atan2(dx, dy)``."""
+    """True bearings (K,), rad clockwise from north ([Oh2021, Eq. (3)]): ``atan2(dx, dy)``."""
     d = truth(target, t)[:, :2] - observer(t)
     return np.arctan2(d[:, 0], d[:, 1])
 
@@ -207,7 +207,7 @@ def study(runs: int, seed: int, targets=(1, 2, 3), sigmas_deg=SIGMAS_DEG, scans=
                                         for k, v in NOTES_NR_DIVERGENCE.items()}}
 
 
-#: What 003 states in its text (Sec. 4); everything else is in its figures only.
+#: What [Oh2021] states in its text (Sec. 4); everything else is in its figures only.
 PUBLISHED = {
     "nr_divergence_target2_sigma1.9_pct": "about 40 (\"increased by up to about 40%\")",
     "nr_divergence_small_sigma": "none (\"accurate estimates with small standard deviations without divergence\")",
@@ -226,7 +226,7 @@ def table(result: dict) -> str:
     methods = result["methods"]
     head = f"{'T':>2}{'sigma':>6}{'K':>5}" + "".join(f"{m + ' div%':>11}{m + ' pos':>10}" for m in methods)
     head += f"{'CRLB pos':>10}{'ref. NR div%':>15}{'no-bearings pos':>16}"
-    lines = [f"oh2021 (003 Figs. 4-5): {result['runs']} runs per cell, seed {result['seed']}, "
+    lines = [f"oh2021 (Oh2021 Figs. 4-5): {result['runs']} runs per cell, seed {result['seed']}, "
              f"{len(result['cells'])} cells in {result['wall_seconds']:.0f} s ({result['workers']} workers)", head]
     for c in result["cells"]:
         ref = NOTES_NR_DIVERGENCE.get(c["target"])

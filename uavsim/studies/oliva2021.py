@@ -64,11 +64,11 @@ OWNSHIP_SPEED, AMPLITUDE, OMEGA, GAMMA_APF = 7.778, 5e3, 2.5e-4, 0.749
 #: name -> (gamma (rad), constrained)
 SCENARIOS = {"no-information": (0.0, False), "unconstrained-apf": (GAMMA_APF, False),
              "constrained-no-apf": (0.0, True), "proposed": (GAMMA_APF, True)}
-#: The global stage's search box for [x0, y0, vx, vy, ax, ay] (ours; 000 gives none): the
+#: The global stage's search box for [x0, y0, vx, vy, ax, ay] (ours; [Oliva2021] gives none): the
 #: square holding Table 1's sets, speeds up to 20 m/s a component, 0.01 m/s^2.
 BOUNDS = ((-4e4, 1e5), (-4e4, 1e5), (-20.0, 20.0), (-20.0, 20.0), (-0.01, 0.01), (-0.01, 0.01))
 
-#: 000 Table 2 (rel pos, rel vel, abs acc of the average and the best solution), Table 3
+#: [Oliva2021, Table 2] (rel pos, rel vel, abs acc of the average and the best solution), Table 3
 #: (covariance, covariance of the runs within the 50th percentile, CRLB; spectral norms)
 #: and Table 4 (MIDACO's seconds per solve: mean, std).
 PUBLISHED = {
@@ -267,7 +267,7 @@ def study(runs: int, seed: int, solver: str = "local", scenarios=tuple(SCENARIOS
     ``vary="noise"``: run r has its own noise draw (the estimator's statistics; the local
     solver starts at the pseudo-linear estimate).  ``vary="start"``: every run sees run
     0's noise and starts elsewhere (the local solver: uniform in :data:`BOUNDS` from run
-    r's second stream; the global one: its own seed): 000's "100 instances of
+    r's second stream; the global one: its own seed): [Oliva2021]'s "100 instances of
     MIDACO-SOLVER with random initial choice for the parameters" read literally, so the
     spread is the solver's, not the noise's."""
     if vary not in ("noise", "start"):
@@ -302,8 +302,8 @@ def _ratio(ours, paper) -> str:
 
 
 def table(result: dict) -> str:
-    """Tables 2-4 of 000 beside ours, per scenario: metric, ours, published, ratio."""
-    lines = [f"oliva2021 (000 Tables 2-4): {result['runs']} runs, seed {result['seed']}, "
+    """Tables 2-4 of [Oliva2021] beside ours, per scenario: metric, ours, published, ratio."""
+    lines = [f"oliva2021 (Oliva2021 Tables 2-4): {result['runs']} runs, seed {result['seed']}, "
              f"solver {result['solver']}, varying the {result['vary']}, {result['wall_seconds']:.1f} s",
              f"{'':24}{'ours':>11}{'published':>11}{'ratio':>9}"]
     names = ("rel pos", "rel vel", "abs acc")

@@ -1,4 +1,4 @@
-"""Policies without a flying UAV: the 3-sensor baseline (004 Sec. VI-B) and no sensor.
+"""Policies without a flying UAV: the 3-sensor baseline ([Papaioannou2023, Sec. VI-B]) and no sensor.
 
 * ``fixed-sensors``: static bearing sensors (the paper's at [150, 200], [800, 200],
   [500, 900] m) receive a bearing of every target each step, without false alarms;
