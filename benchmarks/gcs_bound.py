@@ -45,7 +45,7 @@ from uavsim.guidance import Guidance
 from uavsim.guidance.faces import step_boxes
 from uavsim.guidance.model import KN
 from uavsim.world import free_space
-from uavsim.worldgen import generate, mission_toml, world_toml
+from uavsim.world.generate import generate, mission_toml, world_toml
 
 PHI, WP, WV, WU, MU, TT, WIDTH = 0, 1, 3, 5, 7, 9, 10  # an edge's columns: phi, w = phi (p, v, u_prev), phi u, t
 

@@ -47,7 +47,7 @@ from uavsim.config import load_mission
 from uavsim.guidance import Guidance
 from uavsim.sim import Simulation
 from uavsim.uav import BASELINE
-from uavsim.worldgen import generate, mission_toml, world_toml
+from uavsim.world.generate import generate, mission_toml, world_toml
 from worlds import collisions, goal_distance, quantiles
 
 GAP = 1e-3  # the certified gap the figures count

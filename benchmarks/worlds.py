@@ -12,8 +12,8 @@ World s is ``uavsim world generate --seed s --obstacles s % 16 --targets 1 + s %
 (written to ``OUT/worlds`` and loaded through the mission reader, as a user would).  Per
 world, each target's first plan from its prior mean is checked against an independent
 **route-fixed QP baseline**: for each of up to six topologically distinct shortest routes
-round the inflated obstacles (:func:`uavsim.routes.distinct_routes`) and three speed
-profiles along it, the faces its points lie beyond are fixed (:func:`uavsim.routes.
+round the inflated obstacles (:func:`uavsim.world.routes.distinct_routes`) and three speed
+profiles along it, the faces its points lie beyond are fixed (:func:`uavsim.world.routes.
 faces_along`) and the cvxpy model of P1 with those faces is solved by Clarabel; the
 baseline is the best of these.  A first plan that ends outside its goal region gets an
 **in-goal baseline**: the same models, and the plan's own faces, with the plan's last
@@ -57,9 +57,9 @@ from uavsim.campaign import trial_seeds
 from uavsim.config import load_mission
 from uavsim.guidance import Guidance
 from uavsim.guidance.model import build_p1
-from uavsim.routes import distinct_routes, faces_along
 from uavsim.sim import Simulation
-from uavsim.worldgen import generate, mission_toml, world_toml
+from uavsim.world.generate import generate, mission_toml, world_toml
+from uavsim.world.routes import distinct_routes, faces_along
 
 ROUTES, PROFILES = 6, ("relaxed", "uniform", "late")
 

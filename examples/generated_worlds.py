@@ -1,6 +1,6 @@
 """Generated worlds: open ground and cities from a seed.
 
-``uavsim.worldgen.generate`` draws a world and a mission from one numpy Generator (the
+``uavsim.world.generate.generate`` draws a world and a mission from one numpy Generator (the
 same seed gives the same bytes; ``uavsim world generate`` from the command line): open
 worlds with gates, shielded goals and masts, or towns of streets and buildings.  Each pair is
 written as TOML, validated by ``load_mission`` and drawn top-down.
@@ -18,7 +18,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Polygon, Rectangle
 
 from uavsim.config import load_mission
-from uavsim.worldgen import generate, mission_toml, world_toml
+from uavsim.world.generate import generate, mission_toml, world_toml
 
 
 def draw(ax, mission, heights: Normalize) -> None:

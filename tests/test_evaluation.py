@@ -235,7 +235,7 @@ def test_a_planned_truth_starts_from_the_next_draw_that_has_a_plan(tmp_path):
     truth starts from the next clear draw, inside the area, and says so in an event."""
     from dataclasses import replace
 
-    from uavsim.worldgen import generate, mission_toml, world_toml
+    from uavsim.world.generate import generate, mission_toml, world_toml
 
     gen = replace(generate(np.random.default_rng(26), 26 % 16, 1 + 26 % 8), name="gen-s26", seed=26)
     (tmp_path / "w.world.toml").write_text(world_toml(gen))

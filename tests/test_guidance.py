@@ -240,7 +240,7 @@ def test_warm_start_from_a_two_step_plan_at_the_shortest_horizon(tmp_path):
     world 43 (``benchmarks/worlds.py``), whose filter re-plan at step 49 (inputs stored in
     tests/data/world43_last_replan.npz) ended in an IndexError; now it is the cold optimum."""
     from uavsim.guidance import Plan
-    from uavsim.worldgen import generate, mission_toml, world_toml
+    from uavsim.world.generate import generate, mission_toml, world_toml
 
     gen = dataclasses.replace(generate(np.random.default_rng(43), 43 % 16, 1 + 43 % 8), name="gen-s43", seed=43)
     (tmp_path / "w.world.toml").write_text(world_toml(gen))
@@ -257,7 +257,7 @@ def test_warm_start_from_a_two_step_plan_at_the_shortest_horizon(tmp_path):
 
 
 def _generated(seed, tmp_path):
-    from uavsim.worldgen import generate, mission_toml, world_toml
+    from uavsim.world.generate import generate, mission_toml, world_toml
 
     gen = dataclasses.replace(generate(np.random.default_rng(seed), seed % 16, 1 + seed % 8), name=f"gen-s{seed}",
                               seed=seed)
@@ -430,7 +430,7 @@ def test_assembled_program_equals_cvxpy_compilation(paper_guidance):
 
 def _generated(seed, folder):
     """Generated world ``seed`` as ``benchmarks/worlds.py`` makes it, read as a user would."""
-    from uavsim.worldgen import generate, mission_toml, world_toml
+    from uavsim.world.generate import generate, mission_toml, world_toml
 
     gen = dataclasses.replace(generate(np.random.default_rng(seed), seed % 16, 1 + seed % 8), name="w", seed=seed)
     (folder / "w.world.toml").write_text(world_toml(gen))
@@ -466,7 +466,7 @@ def test_a_certified_plan_may_end_outside_its_goal_region_where_ending_inside_co
     benchmark's in-goal baseline) and its last point constrained into the region costs
     35 204 m^2, 2.3x; the paper's cost prefers not to reach, through the force-increment
     term.  A certified plan is within the gap of every plan, ending inside or not."""
-    from uavsim.routes import distinct_routes, faces_along
+    from uavsim.world.routes import distinct_routes, faces_along
 
     m = _generated(15, tmp_path)
     t, cfg = m.targets[2], m.guidance

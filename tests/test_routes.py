@@ -4,7 +4,8 @@ exact free-space connectivity, and the segment distances against dense sampling.
 import numpy as np
 import pytest
 
-from uavsim.routes import (
+from uavsim.world import free_space
+from uavsim.world.routes import (
     GoalField,
     distinct_routes,
     faces_along,
@@ -13,7 +14,6 @@ from uavsim.routes import (
     segment_distance,
     shortest_route,
 )
-from uavsim.world import free_space
 
 AREA = (np.array([-50.0, -50.0]), np.array([150.0, 50.0]))
 

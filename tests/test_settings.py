@@ -12,7 +12,8 @@ from uavsim.config import load_mission
 from uavsim.declare import si_array, specs
 from uavsim.mission import MissionError
 from uavsim.uav import PlannerConfig
-from uavsim.worldgen import Settings, generate, mission_toml, world_toml
+from uavsim.world.draw import Settings
+from uavsim.world.generate import generate, mission_toml, world_toml
 from uavsim.writer import reference, sections, to_toml
 
 from .conftest import PAPER, ROOT

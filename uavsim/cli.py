@@ -442,7 +442,7 @@ def cmd_tma_reproduce(args: argparse.Namespace) -> int:
 
 
 def cmd_world_generate(args: argparse.Namespace) -> int:
-    from .worldgen import KINDS, generate, mission_toml, world_toml
+    from .world.generate import KINDS, generate, mission_toml, world_toml
 
     _seed(args.seed)
     most_obstacles, most_targets = KINDS[args.kind]

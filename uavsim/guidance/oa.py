@@ -6,7 +6,7 @@ against a :class:`Budget`:
 
 1. finds upper bounds: QPs with the faces fixed (:mod:`.qp`) for the previous plan's
    faces; for a first plan, the faces along the shortest topologically distinct routes
-   round the inflated obstacles (:mod:`uavsim.routes`); two dives from the obstacle-free
+   round the inflated obstacles (:mod:`uavsim.world.routes`); two dives from the obstacle-free
    optimum; a corner local search.  A world (or a start) whose obstacle-free optimum is
    clear of every obstacle is solved by that one QP;
 2. certifies the best by a best-first branch-and-bound over the faces the reachable set
@@ -63,7 +63,7 @@ import highspy
 import numpy as np
 import scipy.sparse as sp
 
-from ..routes import distinct_routes
+from ..world.routes import distinct_routes
 from .compiled import INF, Compiled, new_highs, pass_model
 from .faces import (
     Reach,
@@ -332,7 +332,7 @@ class OuterApproximation:
 
     def _route_faces(self, ctx, bounds) -> list[np.ndarray]:
         """Face choices along the :data:`ROUTES` shortest topologically distinct routes
-        round the inflated obstacles (:func:`uavsim.routes.distinct_routes`), from the first
+        round the inflated obstacles (:func:`uavsim.world.routes.distinct_routes`), from the first
         planned position to the goal.  Step tau is placed on a route at the fraction of the
         route the obstacle-free optimum has covered by then (same speed profile, longer
         path); each step takes, per obstacle, the allowed face that point is most clearly

@@ -8,9 +8,10 @@ import pytest
 
 from uavsim.cli import main
 from uavsim.config import load_mission
-from uavsim.routes import segment_box_distance, shortest_route
 from uavsim.world import ground_footprints
-from uavsim.worldgen import REACH_FRACTION, generate, mission_toml, world_toml
+from uavsim.world.draw import REACH_FRACTION
+from uavsim.world.generate import generate, mission_toml, world_toml
+from uavsim.world.routes import segment_box_distance, shortest_route
 
 from .conftest import PAPER
 

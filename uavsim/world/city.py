@@ -1,8 +1,8 @@
 """Random cities: guidance among dozens to hundreds of buildings.
 
-``uavsim.worldgen.generate(rng, obstacles=K, targets=N, kind="city")`` draws a world +
+``uavsim.world.generate.generate(rng, obstacles=K, targets=N, kind="city")`` draws a world +
 mission pair of the kind "city" with :func:`attempt` (the kind "open" has a few walls,
-masts and boxes).  The result is a :class:`uavsim.worldgen.Generated`, written by the
+masts and boxes).  The result is a :class:`uavsim.world.draw.Generated`, written by the
 same ``world_toml`` and ``mission_toml``; everything random comes from the one Generator
 passed in.
 
@@ -20,16 +20,16 @@ What a city holds:
   across some streets that make **dead ends**;
 * 0-150 buildings exactly as asked (walls and courtyard rings included), 1-16 targets in
   the streets, each with a goal at most ``REACH_FRACTION`` of the horizon's reach away by
-  free path, checked as for the open kind (:func:`uavsim.worldgen.generate`).
+  free path, checked as for the open kind (:func:`uavsim.world.generate.generate`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .draw import Settings, draw_fixed_sensors, draw_target, draw_uav
+from .model import GROUND_BAND_M, free_space, ground_footprints
 from .routes import GoalField
-from .world import GROUND_BAND_M, free_space, ground_footprints
-from .worldgen import Settings, _fixed_sensors, _target, _uav
 
 BLOCK_M, STREET_M = (70.0, 190.0), (26.0, 50.0)
 PER_BLOCK = 6  # most buildings one block is split into
@@ -157,7 +157,7 @@ def _clear_of(box, goals, keep_clear: float) -> bool:
 
 # --------------------------------------------------------------------------- one draw
 def attempt(rng, n_buildings: int, n_targets: int, s: Settings) -> dict | None:
-    """One draw of a city: the fields of :class:`uavsim.worldgen.Generated`, or None when
+    """One draw of a city: the fields of :class:`uavsim.world.draw.Generated`, or None when
     the draw cannot be completed (the caller draws again)."""
     keep_clear = s.margin + 10.0
     n_goals = int(rng.integers(1, min(n_targets, 4) + 1))
@@ -240,13 +240,13 @@ def _finish(rng, boxes, kinds, goals, area_lo, area_hi, n_targets: int, s: Setti
     starts, vels, which, lengths = [], [], [], []
     for j in range(n_targets):
         g = j % len(goal_c)
-        got = _target(rng, (goal_c[g], goal_s[g]), None, fields[g], (lo, hi), area_lo, area_hi, goals_lo,
+        got = draw_target(rng, (goal_c[g], goal_s[g]), None, fields[g], (lo, hi), area_lo, area_hi, goals_lo,
                       goals_hi, s)
         if got is None:
             return None
         starts.append(got[0]), vels.append(got[1]), which.append(g), lengths.append(got[2])
-    uav = _uav(rng, obs_lo, obs_hi, area_lo, area_hi)
-    sensors = _fixed_sensors(rng, obs_lo, obs_hi, area_lo, area_hi)
+    uav = draw_uav(rng, obs_lo, obs_hi, area_lo, area_hi)
+    sensors = draw_fixed_sensors(rng, obs_lo, obs_hi, area_lo, area_hi)
     if uav is None or sensors is None:
         return None
     names = tuple(f"{kind}{i + 1}" for i, kind in enumerate(kinds))

@@ -7,9 +7,10 @@ import pytest
 
 from uavsim.cli import main
 from uavsim.config import load_mission
-from uavsim.routes import segment_box_distance, shortest_route
 from uavsim.world import free_space, ground_footprints
-from uavsim.worldgen import REACH_FRACTION, generate, mission_toml, world_toml
+from uavsim.world.draw import REACH_FRACTION
+from uavsim.world.generate import generate, mission_toml, world_toml
+from uavsim.world.routes import segment_box_distance, shortest_route
 
 SUITE = [(seed, k, n) for seed, (k, n) in enumerate([(0, 1), (10, 3), (25, 4), (35, 6), (50, 8), (75, 12),
                                                      (100, 16), (150, 16), (60, 1), (120, 9)])]
@@ -116,7 +117,7 @@ def test_unknown_kind():
 
 def test_city_missions_give_first_plans_a_longer_budget(suite):
     """The paper's numbers but the first plans' budget (60 nominal s: docs/guidance-cities.md)."""
-    from uavsim.worldgen import CITY_TIME_LIMIT_S
+    from uavsim.world.generate import CITY_TIME_LIMIT_S
 
     for g, m in suite:
         assert m.guidance.time_limit == g.settings.guidance.time_limit == CITY_TIME_LIMIT_S == 60.0
