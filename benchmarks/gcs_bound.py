@@ -9,7 +9,7 @@ convex relaxation of that mixed-integer program is often tight.  Here P1 is writ
 way on a time-expanded graph:
 
 * free space (area minus the inflated footprints) is covered by maximal free rectangles
-  (grown from the cells of :func:`uavsim.world.free_space`); vertex (tau, k) says ``p_tau``
+  (grown from the cells of a compressed grid of the rectangles' edges); vertex (tau, k) says ``p_tau``
   lies in rectangle k, for tau = 2..T and the rectangles the reachable set of plans with
   ``f <= UB`` meets at tau (:meth:`uavsim.guidance.faces.Reach.face_bounds`, UB the
   solver's optimum);
@@ -42,23 +42,27 @@ from harness import machine, markdown_table, write
 
 from uavsim.config import load_mission
 from uavsim.guidance import Guidance
-from uavsim.guidance.faces import step_boxes
 from uavsim.guidance.model import KN
-from uavsim.world import free_space
 from uavsim.world.generate import generate, mission_toml, world_toml
 
 PHI, WP, WV, WU, MU, TT, WIDTH = 0, 1, 3, 5, 7, 9, 10  # an edge's columns: phi, w = phi (p, v, u_prev), phi u, t
 
 
 def rectangles(lo, hi, area_lo, area_hi) -> np.ndarray:
-    """``(K, 2, 2)`` maximal free rectangles covering the free space, grown from the largest
-    uncovered free cell of the compressed grid until no side can move."""
-    fs = free_space(lo, hi, area_lo, area_hi)
-    free = fs.owner < 0
+    """``(K, 2, 2)`` maximal free rectangles covering the free space outside the
+    rectangles ``[lo, hi]``, grown from the largest uncovered free cell of the compressed
+    grid (the rectangles' and the area's edges cut the area into cells, each wholly free
+    or wholly covered) until no side can move."""
+    a_lo, a_hi = np.asarray(area_lo)[:2], np.asarray(area_hi)[:2]
+    xs = np.unique(np.r_[np.clip(lo[:, 0], a_lo[0], a_hi[0]), np.clip(hi[:, 0], a_lo[0], a_hi[0]), a_lo[0], a_hi[0]])
+    ys = np.unique(np.r_[np.clip(lo[:, 1], a_lo[1], a_hi[1]), np.clip(hi[:, 1], a_lo[1], a_hi[1]), a_lo[1], a_hi[1]])
+    cx, cy = 0.5 * (xs[1:] + xs[:-1]), 0.5 * (ys[1:] + ys[:-1])
+    free = ~(((cx[:, None] > lo[:, 0]) & (cx[:, None] < hi[:, 0]))[:, None, :]
+             & ((cy[:, None] > lo[:, 1]) & (cy[:, None] < hi[:, 1]))[None, :, :]).any(axis=-1)
     nx, ny = free.shape
     covered = np.zeros_like(free)
     out = []
-    for flat in np.argsort(-(np.diff(fs.xs)[:, None] * np.diff(fs.ys)[None, :]).ravel(), kind="stable"):
+    for flat in np.argsort(-(np.diff(xs)[:, None] * np.diff(ys)[None, :]).ravel(), kind="stable"):
         i, j = divmod(int(flat), ny)
         if not free[i, j] or covered[i, j]:
             continue
@@ -71,7 +75,7 @@ def rectangles(lo, hi, area_lo, area_hi) -> np.ndarray:
                 if 0 <= a0 and a1 <= nx and 0 <= b0 and b1 <= ny and free[a0:a1, b0:b1].all():
                     i0, i1, j0, j1, grown = a0, a1, b0, b1, True
         covered[i0:i1, j0:j1] = True
-        out.append(((fs.xs[i0], fs.ys[j0]), (fs.xs[i1], fs.ys[j1])))
+        out.append(((xs[i0], ys[j0]), (xs[i1], ys[j1])))
     return np.array(out)
 
 
@@ -123,7 +127,7 @@ def gcs_bound(g: Guidance, x0: np.ndarray, goal: np.ndarray, ub: float, rects: n
     gain, f_max, rho = dt * KN / dyn.mass, cfg.force_max / KN, cfg.rho * KN**2
     lo, hi = g.oa.c.rows(np.r_[x0, goal])
     relax = g.oa.qp.solve(lo, hi, np.ones(g.oa.shape), relax=True)
-    box_lo, box_hi = step_boxes(*g.reach.face_bounds(x0, goal, ub, (relax.x[2:, :2], relax.f)))
+    box_lo, box_hi = g.reach.face_bounds(x0, goal, geom.face_normals, ub, (relax.x[2:, :2], relax.f)).boxes
     verts = [np.flatnonzero(np.all((rects[:, 1] >= box_lo[r]) & (rects[:, 0] <= box_hi[r]), axis=1))
              for r in range(horizon - 1)]
     edges = [(-1, -1, 0, int(k)) for k in verts[0]]  # (tail step row, tail rect, head step row, head rect)

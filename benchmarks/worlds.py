@@ -107,12 +107,12 @@ def route_faces(mission, guidance, target) -> list[np.ndarray]:
     p1 = mean[:2] + dyn.dt * mean[3:5]
     steps = np.arange(1, cfg.horizon)  # planned steps 2..T sit at these fractions of the route
     out = []
-    for r in distinct_routes(p1, goal, g.lo, g.hi, g.area_lo, g.area_hi, k=ROUTES):
+    for r in distinct_routes(p1, goal, g.polys, g.area_lo, g.area_hi, k=ROUTES):
         for profile in PROFILES:
             frac = {"uniform": steps / (cfg.horizon - 1), "late": (steps / (cfg.horizon - 1)) ** 1.5,
                     "relaxed": np.minimum(1.0, steps / (0.8 * (cfg.horizon - 1)))}[profile]
-            face = faces_along(r.at(frac * r.length), g.lo, g.hi)  # (T-1, n)
-            y = np.ones((cfg.horizon - 1, len(g.kept), 4))
+            face = faces_along(r.at(frac * r.length), g.polys)  # (T-1, n)
+            y = np.ones((cfg.horizon - 1, *g.face_offsets.shape))
             np.put_along_axis(y, face[..., None], 0.0, axis=2)
             out.append(y.reshape(cfg.horizon - 1, -1))
     return out

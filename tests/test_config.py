@@ -133,6 +133,9 @@ def test_bad_mission(tmp_path, capsys, text, key, fragment):
     assert fragment in lines[0]
 
 
+PRISM = '\n[[obstacles]]\nname = "P"\nfootprint_m = {footprint}\nz_m = {z}\n'
+
+
 BAD_WORLDS = [
     (wsub("center_m = [500.0, 150.0]", "center_m = [375.0, 500.0]"), "goals[0].center_m", "inside obstacle 'A'"),
     (wsub("center_m = [500.0, 150.0]", "center_m = [1500.0, 150.0]"), "goals[0].center_m", "outside the area"),
@@ -141,6 +144,20 @@ BAD_WORLDS = [
     (wsub('name = "C"', 'name = "C"\nheight_m = 3'), "obstacles[2].height_m", "unknown key"),
     (wsub("[area]\n", "[area]\nmin_m = [0.0, 0.0]\n").replace("min_m = [0.0, 0.0, 0.0]\n", "", 1),
      "area.min_m", "expected a 3 array"),
+    (WORLD_TEXT + PRISM.format(footprint="[[100, 100], [100, 200], [200, 150]]", z="[0, 30]"),
+     "obstacles[5].footprint_m", "clockwise; list the vertices counter-clockwise"),
+    (WORLD_TEXT + PRISM.format(footprint="[[100, 100], [200, 100], [150, 120], [200, 200], [100, 200]]", z="[0, 30]"),
+     "obstacles[5].footprint_m", "not strictly convex at vertex 2 [150, 120]"),
+    (WORLD_TEXT + PRISM.format(footprint="[[100, 100], [200, 100], [300, 100], [200, 200]]", z="[0, 30]"),
+     "obstacles[5].footprint_m", "not strictly convex at vertex 1 [200, 100]"),
+    (WORLD_TEXT + PRISM.format(footprint="[[100, 100], [200, 100]]", z="[0, 30]"),
+     "obstacles[5].footprint_m", "needs at least 3"),
+    (WORLD_TEXT + PRISM.format(footprint="[[100, 100], [200, 100], [150, 200]]", z="[30, 30]"),
+     "obstacles[5].z_m", "z_max > z_min"),
+    (WORLD_TEXT + PRISM.format(footprint="[[100, 100], [1200, 100], [150, 200]]", z="[0, 30]"),
+     "obstacles[5].footprint_m", "extends outside the area [0, 0, 0]..[1000, 1000, 1000]: 200 m beyond x max"),
+    (WORLD_TEXT + PRISM.format(footprint="[[100, 100], [200, 100], [150, 200]]", z="[0, 30]") + "min_m = [0, 0, 0]\n",
+     "obstacles[5].min_m", "a cuboid (min_m, max_m) or a prism (footprint_m, z_m), not both"),
 ]
 
 

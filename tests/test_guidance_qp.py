@@ -48,7 +48,7 @@ def perturbed_faces(g, fast, lo, hi, n, seed, spread=60.0):
     out = []
     for _ in range(n):
         pts = relax.x[2:, :2] + rng.normal(0, spread, 2) + rng.normal(0, spread / 3, relax.x[2:, :2].shape)
-        out.append(choose_faces(pts, g.oa.offsets[None], np.zeros(g.oa.shape), np.ones(g.oa.shape)))
+        out.append(choose_faces(pts, g.oa.faces, g.oa.offsets[None], np.zeros(g.oa.shape), np.ones(g.oa.shape)))
     return out
 
 
@@ -113,12 +113,12 @@ def test_branch_and_bound_nodes_and_infeasible_children(paper):
     offsets = g.oa.offsets
     verdicts = []
     for j in range(offsets.shape[0]):
-        for i in range(4):
+        for i in range(offsets.shape[1]):
             y = np.ones(g.oa.shape)
             y[0, j, i] = 0.0  # step 2 beyond face i of obstacle j
             a, b = fast.solve(lo, hi, y), slow.solve(lo, hi, y)
             agree(a, b)
-            normal = g.geom.face_normals[i]
+            normal = g.geom.face_normals[j, i]
             far = normal @ p2 - offsets[j, i] < -3 * MISSION.guidance.speed_max  # beyond reach in one step
             if far:
                 assert a is None
@@ -142,7 +142,8 @@ def test_random_face_choices_on_short_horizons():
             lo, hi = rows(g, t)
             for _ in range(6):
                 y = np.ones(g.oa.shape)
-                np.put_along_axis(y, rng.integers(0, 4, g.oa.shape[:2])[..., None], 0.0, axis=2)
+                face = np.array([1, 3, 2, 0])[rng.integers(0, 4, g.oa.shape[:2])]  # +x, -x, +y, -y of a box
+                np.put_along_axis(y, face[..., None], 0.0, axis=2)
                 y = np.where(rng.random(g.oa.shape[:2])[..., None] < 0.1, y, 1.0)  # 90% of the pairs free
                 a = fast.solve(lo, hi, y)
                 agree(a, slow.solve(lo, hi, y))

@@ -4,16 +4,17 @@ exact free-space connectivity, and the segment distances against dense sampling.
 import numpy as np
 import pytest
 
-from uavsim.world import free_space
+from uavsim.world import Polygons
 from uavsim.world.routes import (
     GoalField,
     distinct_routes,
     faces_along,
     path_lengths,
-    segment_box_distance,
     segment_distance,
+    segment_polygon_distance,
     shortest_route,
 )
+from uavsim.world.space import free_space
 
 AREA = (np.array([-50.0, -50.0]), np.array([150.0, 50.0]))
 
@@ -22,7 +23,7 @@ def test_shortest_path_round_one_rectangle_by_hand():
     """Start (0, 0), goal (100, 0), rectangle [40, 60] x [-10, 10]: over a long side,
     2 sqrt(40^2 + 10^2) + 20 = 102.4621... m, bending at two corners."""
     lo, hi = np.array([[40.0, -10.0]]), np.array([[60.0, 10.0]])
-    r = shortest_route([0, 0], [100, 0], lo, hi, *AREA)
+    r = shortest_route([0, 0], [100, 0], Polygons.boxes(lo, hi), *AREA)
     assert r.length == pytest.approx(2 * np.hypot(40, 10) + 20, abs=1e-12)
     assert r.points.shape == (4, 2) and np.array_equal(r.points[[0, -1]], [[0, 0], [100, 0]])
     assert set(map(tuple, r.points[1:3])) in ({(40, 10), (60, 10)}, {(40, -10), (60, -10)})
@@ -34,15 +35,15 @@ def test_two_routes_round_one_rectangle_by_hand():
     right, face +y); underneath, sqrt(40^2 + 10^2) + 20 + sqrt(40^2 + 40^2) = 117.80 m (on
     its left, face -y); round one obstacle no third class exists."""
     lo, hi = np.array([[40.0, -10.0]]), np.array([[60.0, 20.0]])
-    routes = distinct_routes([0, 0], [100, 30], lo, hi, *AREA, k=3)
+    routes = distinct_routes([0, 0], [100, 30], Polygons.boxes(lo, hi), *AREA, k=3)
     assert [r.length for r in routes] == pytest.approx(
         [np.hypot(40, 20) + np.hypot(60, 10), np.hypot(40, 10) + 20 + np.hypot(40, 40)], abs=1e-9)
     top, bottom = routes
     np.testing.assert_array_equal(top.points, [[0, 0], [40, 20], [100, 30]])
     np.testing.assert_array_equal(bottom.points, [[0, 0], [40, -10], [60, -10], [100, 30]])
     assert [(p.obstacle, p.face, p.turn, p.touching) for p in top.passes] == [(0, 2, -1, True)]
-    assert [(p.obstacle, p.face, p.turn, p.touching) for p in bottom.passes] == [(0, 3, 1, True)]
-    assert top.sides == {0: 2} and bottom.sides == {0: 3}
+    assert [(p.obstacle, p.face, p.turn, p.touching) for p in bottom.passes] == [(0, 0, 1, True)]
+    assert top.sides == {0: 2} and bottom.sides == {0: 0}  # faces -y, +x, +y, -x
     half = top.sample(3)[1]  # half the length along the route: on its second leg
     np.testing.assert_allclose(np.linalg.norm(half - [40, 20]) + np.hypot(40, 20), top.length / 2, rtol=1e-12)
 
@@ -52,24 +53,24 @@ def test_route_through_a_corridor_and_its_alternative():
     (100 m, touching nothing), then over the upper wall's end, 2 sqrt(40^2 + 40^2) + 20 m;
     the lower wall meets the area's edge, so there is no third class."""
     lo, hi = np.array([[40.0, -50.0], [40.0, 5.0]]), np.array([[60.0, -5.0], [60.0, 40.0]])
-    routes = distinct_routes([0, 0], [100, 0], lo, hi, *AREA, k=3)
+    routes = distinct_routes([0, 0], [100, 0], Polygons.boxes(lo, hi), *AREA, k=3)
     assert len(routes) == 2
     assert routes[0].length == pytest.approx(100.0, abs=1e-12) and len(routes[0].points) == 2
-    assert [(p.obstacle, p.face, p.turn, p.touching) for p in routes[0].passes] == [(0, 2, -1, False), (1, 3, 1, False)]
+    assert [(p.obstacle, p.face, p.turn, p.touching) for p in routes[0].passes] == [(0, 2, -1, False), (1, 0, 1, False)]
     assert routes[1].length == pytest.approx(2 * np.hypot(40, 40) + 20, abs=1e-9)
     assert routes[1].sides[1] == 2 and {p.obstacle: p.turn for p in routes[1].passes}[1] == -1
 
 
 def test_no_route_where_the_free_space_is_split():
     lo, hi = np.array([[40.0, -50.0], [40.0, 0.0]]), np.array([[60.0, 0.0], [60.0, 50.0]])  # touching walls
-    assert shortest_route([0, 0], [100, 0], lo, hi, *AREA) is None
-    assert distinct_routes([0, 0], [100, 0], lo, hi, *AREA) == []
-    assert np.isinf(path_lengths([[0, 0]], [100, 0], lo, hi, *AREA)).all()
+    assert shortest_route([0, 0], [100, 0], Polygons.boxes(lo, hi), *AREA) is None
+    assert distinct_routes([0, 0], [100, 0], Polygons.boxes(lo, hi), *AREA) == []
+    assert np.isinf(path_lengths([[0, 0]], [100, 0], Polygons.boxes(lo, hi), *AREA)).all()
 
 
 def test_start_inside_a_rectangle_leaves_it_straight():
     lo, hi = np.array([[-10.0, -10.0]]), np.array([[10.0, 10.0]])
-    r = shortest_route([5, 0], [100, 0], lo, hi, *AREA)
+    r = shortest_route([5, 0], [100, 0], Polygons.boxes(lo, hi), *AREA)
     assert r.length == pytest.approx(95.0) and len(r.points) == 2
 
 
@@ -89,11 +90,11 @@ def test_routes_agree_with_exact_connectivity():
     for _ in range(150):
         lo, hi = random_rects(rng, int(rng.integers(3, 9)))
         start, goal = np.array([-45.0, 3.0]), np.array([145.0, -3.0])
-        space = free_space(lo, hi, *AREA)
+        space = free_space(Polygons.boxes(lo, hi), *AREA)
         if not (space.is_free(start) and space.is_free(goal)):
             continue
         connected = bool(space.start_labels(start) & space.start_labels(goal))
-        route = shortest_route(start, goal, lo, hi, *AREA)
+        route = shortest_route(start, goal, Polygons.boxes(lo, hi), *AREA)
         assert (route is not None) == connected
         if route is not None:
             mid = 0.5 * (route.points[1:] + route.points[:-1])  # no segment midpoint inside a rectangle
@@ -107,10 +108,10 @@ def test_goal_field_equals_the_shortest_route():
     lo, hi = random_rects(rng, 6)
     goal = np.array([145.0, 0.0])
     starts = rng.uniform(AREA[0], AREA[1], (40, 2))
-    field = GoalField(goal, lo, hi, *AREA)
+    field = GoalField(goal, Polygons.boxes(lo, hi), *AREA)
     got = field.lengths(starts)
     for s, length in zip(starts, got):
-        r = shortest_route(s, goal, lo, hi, *AREA)
+        r = shortest_route(s, goal, Polygons.boxes(lo, hi), *AREA)
         assert (r is None and np.isinf(length)) or r.length == pytest.approx(length, rel=1e-12)
 
 
@@ -133,7 +134,7 @@ def test_distances_against_dense_sampling():
     assert np.all(d <= sampled + 1e-12) and np.all(sampled - d <= step)
     assert np.mean(d == 0) > 0.1 and np.mean(d > 0) > 0.1
     lo, hi = np.array([[-0.2, -0.3]]), np.array([[0.3, 0.1]])
-    box = segment_box_distance(a0, a1, lo, hi)[:, 0]
+    box = segment_polygon_distance(a0, a1, Polygons.boxes(lo, hi))[:, 0]
     sampled_box = np.linalg.norm(np.maximum(0, np.maximum(lo - pa, pa - hi)), axis=-1).min(axis=0)
     assert np.all(box <= sampled_box + 1e-12) and np.all(sampled_box - box <= step)
     assert np.mean(box == 0) > 0.1 and np.mean(box > 0) > 0.1
@@ -142,5 +143,35 @@ def test_distances_against_dense_sampling():
 def test_faces_along_by_hand():
     lo, hi = np.array([[0.0, 0.0], [10.0, 10.0]]), np.array([[1.0, 1.0], [20.0, 12.0]])
     pts = np.array([[5.0, 0.5], [-3.0, 0.5], [0.5, 4.0], [0.5, -2.0]])
-    np.testing.assert_array_equal(faces_along(pts, lo, hi)[:, 0], [0, 1, 2, 3])
-    np.testing.assert_array_equal(faces_along(pts, lo, hi)[:, 1], [3, 1, 1, 3])
+    faces = faces_along(pts, Polygons.boxes(lo, hi))  # a box's faces: -y, +x, +y, -x
+    np.testing.assert_array_equal(faces[:, 0], [1, 3, 2, 0])
+    np.testing.assert_array_equal(faces[:, 1], [0, 3, 3, 0])
+
+
+def test_routes_round_a_diamond_by_hand():
+    """A square turned 45 degrees, half-diagonal 10, between (-30, 0) and (30, 0): the two
+    shortest routes bend at its top and bottom corners, each 2 sqrt(30^2 + 10^2) long,
+    and pass it on opposite sides; no route touches the inside."""
+    diamond = Polygons.from_list([[[10.0, 0.0], [0.0, 10.0], [-10.0, 0.0], [0.0, -10.0]]])
+    routes = distinct_routes([-30, 0], [30, 0], diamond, *AREA, k=3)
+    assert len(routes) == 2
+    assert [r.length for r in routes] == pytest.approx([2 * np.hypot(30, 10)] * 2, abs=1e-12)
+    assert {tuple(r.points[1]) for r in routes} == {(0.0, 10.0), (0.0, -10.0)}
+    assert {r.passes[0].turn for r in routes} == {1, -1} and all(r.passes[0].touching for r in routes)
+    mid = 0.5 * (routes[0].points[1:] + routes[0].points[:-1])
+    assert not diamond.contains(mid, tol=-1e-9).any()
+
+
+def test_turned_squares_touching_at_a_corner_close_the_passage():
+    """Two diamonds meeting at (0, 0): closed (a pinch of zero width), as for touching
+    boxes; moved 0.1 m apart, the corridor opens, for routes and free space alike."""
+    def two(gap):
+        d = np.array([[10.0, 0.0], [0.0, 10.0], [-10.0, 0.0], [0.0, -10.0]])
+        return Polygons.from_list([d + [0.0, -10.0 - gap / 2], d + [0.0, 10.0 + gap / 2]])
+
+    for gap, open_ in ((0.0, False), (0.1, True)):
+        walls = two(gap)
+        route = shortest_route([-30, 0], [30, 0], walls, np.array([-40.0, -20.0]), np.array([40.0, 20.0]))
+        space = free_space(walls, np.array([-40.0, -20.0]), np.array([40.0, 20.0]))
+        assert (route is not None) == open_
+        assert bool(space.start_labels(np.array([-30.0, 0.0])) & space.start_labels(np.array([30.0, 0.0]))) == open_

@@ -4,14 +4,17 @@ import numpy as np
 import pytest
 
 from uavsim.world import (
+    Polygons,
     Region2D,
+    World,
+    convex_ccw,
     cuboid_halfspaces,
-    free_space,
     ground_footprints,
     inside_polytopes,
-    label_grid,
+    prism_halfspaces,
     segments_hit_polytopes,
 )
+from uavsim.world.space import free_space
 
 LO, HI = np.array([1.0, 2.0, 0.0]), np.array([3.0, 5.0, 4.0])
 
@@ -103,15 +106,15 @@ def test_ground_footprints_by_hand():
     """margin 9, band 1: kept when z_min - 9 < -1 and z_max + 9 > 1 ([Papaioannou2023] via the guidance model)."""
     lo = np.array([[0, 0, 0], [0, 0, 5], [0, 0, 15], [0, 0, -30], [0, 0, 7.9]], dtype=float)
     hi = np.array([[10, 20, 60], [10, 20, 60], [10, 20, 60], [10, 20, -12], [10, 20, 60]], dtype=float)
-    kept, f_lo, f_hi = ground_footprints(lo, hi, 9.0)
+    kept, ground = ground_footprints(Polygons.boxes(lo[:, :2], hi[:, :2]), lo[:, 2], hi[:, 2], 9.0)
     np.testing.assert_array_equal(kept, [0, 1, 4])
-    np.testing.assert_array_equal(f_lo, [[-9, -9]] * 3)
-    np.testing.assert_array_equal(f_hi, [[19, 29]] * 3)
+    np.testing.assert_array_equal(ground.lo, [[-9, -9]] * 3)
+    np.testing.assert_array_equal(ground.hi, [[19, 29]] * 3)
 
 
 def _space(rects, regions=()):
     r = np.array(rects, dtype=float).reshape(-1, 4)
-    return free_space(r[:, :2], r[:, 2:], AREA_LO, AREA_HI, regions)
+    return free_space(Polygons.boxes(r[:, :2], r[:, 2:]), AREA_LO, AREA_HI)
 
 
 GOAL = (np.array([80.0, 45.0]), np.array([90.0, 55.0]))
@@ -158,20 +161,53 @@ def test_enclosed_goal_and_a_start_inside_a_margin():
     assert in_wall == outside | inside
 
 
-def test_label_grid_is_scipy_ndimage_label():
-    """The numpy labelling that keeps scipy out of reading a mission gives the labels of
-    ``scipy.ndimage.label`` (4-connectivity, numbered in C order of first cells) exactly:
-    random masks of every density, a one-component snake (the longest chain of merges),
-    a checkerboard (no two cells joined) and empty shapes."""
-    from scipy import ndimage
+DIAMOND = np.array([[10.0, 0.0], [0.0, 10.0], [-10.0, 0.0], [0.0, -10.0]])  # a square turned 45 degrees
+PENTAGON = np.array([[0.0, 0.0], [4.0, 0.0], [5.0, 3.0], [2.0, 5.0], [-1.0, 3.0]])
 
-    rng = np.random.default_rng(5)
-    masks = [rng.random(tuple(rng.integers(1, 25, 2))) < rng.random() for _ in range(500)]
-    snake = np.ones((41, 40), bool)
-    snake[1::4, :-1] = False
-    snake[3::4, 1:] = False
-    masks += [snake, np.indices((9, 7)).sum(axis=0) % 2 == 0, np.zeros((3, 4), bool), np.ones((1, 1), bool),
-              np.zeros((0, 5), bool)]
-    for mask in masks:
-        np.testing.assert_array_equal(label_grid(mask), ndimage.label(mask)[0])
-    assert label_grid(snake).max() == 1 and label_grid(masks[-4]).max() == 32
+
+def test_polygons_by_hand():
+    """Padded arrays: a diamond and a pentagon (widths 4 and 5).  The diamond's edge from
+    (10, 0) to (0, 10) has normal (1, 1)/sqrt 2 and offset 10/sqrt 2; pushed out by m it
+    becomes the diamond of half-diagonal 10 + m sqrt 2 (area 2 (10 + m sqrt 2)^2)."""
+    p = Polygons.from_list([DIAMOND, PENTAGON])
+    assert p.width == 5 and p.sides.tolist() == [4, 5] and p.valid[0].tolist() == [True] * 4 + [False]
+    np.testing.assert_allclose(p.normals[0, 0], np.array([1.0, 1.0]) / np.sqrt(2), atol=1e-15)
+    np.testing.assert_allclose(p.offsets[0, :4], 10 / np.sqrt(2))
+    # the pentagon by the shoelace formula: (0 + 12 + 19 + 11 + 0) / 2
+    np.testing.assert_allclose(p.area, [200.0, 21.0], rtol=0, atol=1e-12)
+    big = p.inflated(2.0)
+    np.testing.assert_allclose(big.vertices[0, :4], DIAMOND * (10 + 2 * np.sqrt(2)) / 10, atol=1e-12)
+    np.testing.assert_allclose(big.area[0], 2 * (10 + 2 * np.sqrt(2)) ** 2, rtol=1e-12)
+    assert big.contains(np.array([[10 + 2 * np.sqrt(2) - 1e-9, 0.0], [10 + 2 * np.sqrt(2) + 1e-9, 0.0]]))[:, 0].tolist() \
+        == [True, False]
+    # the inflated pentagon's corners lie on both neighbouring edges pushed out by 2
+    v, a, b = big.vertices[1, :5], p.normals[1, :5], p.offsets[1, :5]
+    np.testing.assert_allclose(np.einsum("fd,fd->f", v, a), b + 2.0, atol=1e-12)
+    np.testing.assert_allclose(np.einsum("fd,fd->f", v, np.roll(a, 1, axis=0)), np.roll(b, 1) + 2.0, atol=1e-12)
+    np.testing.assert_array_equal(p.neighbours()[1, 0], [4, 1])
+    np.testing.assert_array_equal(p.neighbours()[0, 4], [4, 4])  # a padded face points at itself
+
+
+def test_convexity_and_orientation_checks():
+    assert convex_ccw(DIAMOND) == "" and convex_ccw(PENTAGON) == ""
+    assert "clockwise" in convex_ccw(DIAMOND[::-1])
+    assert "vertex 1" in convex_ccw(np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [1.0, 1.0]]))  # straight corner
+    assert "at least 3" in convex_ccw(DIAMOND[:2]) and "repeats" in convex_ccw(np.vstack([DIAMOND, DIAMOND[-1:]]))
+    star = np.array([[np.cos(a), np.sin(a)] for a in np.arange(5) * 4 * np.pi / 5])  # a pentagram: turns left twice round
+    assert convex_ccw(star) == "winds round more than once"
+
+
+def test_a_box_prism_is_the_cuboid():
+    """The half-spaces of a box footprint's prism are the cuboid's six (in another order),
+    and a world of prisms tests points and segments like the cuboid world."""
+    lo, hi = np.array([1.0, 2.0]), np.array([3.0, 5.0])
+    a, b = prism_halfspaces(Polygons.boxes(lo, hi), np.array([0.0]), np.array([4.0]))
+    c, d = cuboid_halfspaces(LO, HI)
+    assert sorted(map(tuple, np.c_[a[0], b[0]])) == sorted(map(tuple, np.c_[c[0], d[0]]))
+    diamond = World.of_prisms("d", np.full(3, -50.0), np.full(3, 50.0), Polygons.from_list([DIAMOND]),
+                              np.array([[0.0, 20.0]]), ["D"], ())
+    pts = np.array([[5.0, 4.9, 1.0], [5.0, 5.1, 1.0], [5.0, 4.9, 20.5], [-4.0, -6.0, 0.0]])
+    assert diamond.in_obstacle(pts).tolist() == [True, False, False, True]
+    assert diamond.segment_blocked(np.array([[-20.0, 11.0, 1.0], [-20.0, 9.0, 1.0]]),
+                                   np.array([[20.0, 11.0, 1.0], [20.0, 9.0, 1.0]])).tolist() == [False, True]
+    np.testing.assert_array_equal(diamond.obstacle_lo, [[-10.0, -10.0, 0.0]])

@@ -7,10 +7,10 @@ import pytest
 
 from uavsim.cli import main
 from uavsim.config import load_mission
-from uavsim.world import free_space, ground_footprints
-from uavsim.world.draw import REACH_FRACTION
+from uavsim.world.draw import REACH_FRACTION, ground_boxes
 from uavsim.world.generate import generate, mission_toml, world_toml
-from uavsim.world.routes import segment_box_distance, shortest_route
+from uavsim.world.routes import segment_polygon_distance, shortest_route
+from uavsim.world.space import free_space
 
 SUITE = [(seed, k, n) for seed, (k, n) in enumerate([(0, 1), (10, 3), (25, 4), (35, 6), (50, 8), (75, 12),
                                                      (100, 16), (150, 16), (60, 1), (120, 9)])]
@@ -40,12 +40,12 @@ def test_starts_are_free_and_goals_reachable_within_the_horizon(suite):
     centre is at most 0.6 T dt v_max; p0 and p1 keep a margin from every inflated footprint."""
     for g, m in suite:
         s = g.settings
-        _, lo, hi = ground_footprints(m.world.obstacle_lo, m.world.obstacle_hi, s.margin)
+        ground = ground_boxes(m.world.obstacle_lo, m.world.obstacle_hi, s.margin)
         for t in m.targets:
             p0, p1 = t.mean0[:2], t.mean0[:2] + t.mean0[3:5] * m.dynamics.dt
-            if len(lo):
-                assert segment_box_distance(p0, p1, lo, hi).min() >= s.margin
-            route = shortest_route(p0, m.world.goals[t.goal].centroid[:2], lo, hi, m.world.area_lo, m.world.area_hi)
+            if len(ground):
+                assert segment_polygon_distance(p0, p1, ground).min() >= s.margin
+            route = shortest_route(p0, m.world.goals[t.goal].centroid[:2], ground, m.world.area_lo, m.world.area_hi)
             reach = REACH_FRACTION * m.guidance.horizon * m.dynamics.dt * m.guidance.speed_max
             assert route is not None and route.length <= reach
 
@@ -59,8 +59,9 @@ def test_cities_are_street_grids_with_plazas_courtyards_and_dead_ends(suite):
     courtyards = plazas = walls = 0
     for g, m in suite:
         s = g.settings
-        _, lo, hi = ground_footprints(m.world.obstacle_lo, m.world.obstacle_hi, s.margin)
-        space = free_space(lo, hi, m.world.area_lo, m.world.area_hi, [(r.lo, r.hi) for r in m.world.goals])
+        ground = ground_boxes(m.world.obstacle_lo, m.world.obstacle_hi, s.margin)
+        lo, hi = ground.lo, ground.hi
+        space = free_space(ground, m.world.area_lo, m.world.area_hi)
         o_lo, o_hi = m.world.obstacle_lo[:, :2], m.world.obstacle_hi[:, :2]
         for region in m.world.goals:
             near = np.maximum(0, np.maximum(o_lo - region.hi, region.lo - o_hi))

@@ -8,10 +8,9 @@ import pytest
 
 from uavsim.cli import main
 from uavsim.config import load_mission
-from uavsim.world import ground_footprints
-from uavsim.world.draw import REACH_FRACTION
+from uavsim.world.draw import REACH_FRACTION, ground_boxes
 from uavsim.world.generate import generate, mission_toml, world_toml
-from uavsim.world.routes import segment_box_distance, shortest_route
+from uavsim.world.routes import segment_polygon_distance, shortest_route
 
 from .conftest import PAPER
 
@@ -59,13 +58,13 @@ def test_starts_are_free_and_goals_reachable_within_the_horizon(suite):
     margin outside every inflated obstacle."""
     for _, m in suite:
         margin = m.guidance.speed_max * m.dynamics.dt / 2 + m.guidance.clearance
-        _, lo, hi = ground_footprints(m.world.obstacle_lo, m.world.obstacle_hi, margin)
+        ground = ground_boxes(m.world.obstacle_lo, m.world.obstacle_hi, margin)
         for t in m.targets:
             p0, p1 = t.mean0[:2], t.mean0[:2] + t.mean0[3:5] * m.dynamics.dt
             goal = m.world.goals[t.goal].centroid[:2]
-            if len(lo):
-                assert segment_box_distance(p0, p1, lo, hi).min() >= margin
-            route = shortest_route(p0, goal, lo, hi, m.world.area_lo, m.world.area_hi)
+            if len(ground):
+                assert segment_polygon_distance(p0, p1, ground).min() >= margin
+            route = shortest_route(p0, goal, ground, m.world.area_lo, m.world.area_hi)
             reach = REACH_FRACTION * m.guidance.horizon * m.dynamics.dt * m.guidance.speed_max
             assert route is not None and route.length <= reach
 
@@ -88,10 +87,10 @@ def test_the_suite_is_varied(suite):
             lo, hi = g.obstacle_lo[:, :2], g.obstacle_hi[:, :2]
             gap = np.max(np.maximum(lo[b] - hi[a], lo[a] - hi[b]))  # between the walls, along the wall
             corridors.append(gap / margin)
-        _, lo, hi = ground_footprints(g.obstacle_lo, g.obstacle_hi, margin)
+        ground = ground_boxes(g.obstacle_lo, g.obstacle_hi, margin)
         goals = np.array([m.world.goals[t.goal].centroid[:2] for t in m.targets])
-        if len(lo):  # a goal behind an obstacle: the straight line from the start is blocked
-            blocked += np.any(segment_box_distance(g.target_positions[:, :2], goals, lo, hi) == 0)
+        if len(ground):  # a goal behind an obstacle: the straight line from the start is blocked
+            blocked += np.any(segment_polygon_distance(g.target_positions[:, :2], goals, ground) == 0)
     assert len(corridors) >= 20 and 2.4 <= min(corridors) and max(corridors) <= 5.1  # 2.5-5 margins, rounded
     assert blocked >= 25
 

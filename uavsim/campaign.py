@@ -255,6 +255,8 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
         del data["filter"]["plan_clusters"]
     if data["guidance"]["terminal"] == "soft":  # likewise
         del data["guidance"]["terminal"]
+    if data["world"]["prisms"] is None:  # a world of cuboids, as before prisms existed
+        del data["world"]["prisms"]
     return hashlib.sha256(json.dumps(data, default=_plain, sort_keys=True).encode()).hexdigest()
 
 

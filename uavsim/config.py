@@ -36,7 +36,7 @@ from .targets import TARGET_KEYS, Dynamics, Target
 from .uav import FixedSensorsConfig, LookaheadConfig, ManoeuvreConfig, PlannerConfig, UavConfig
 from .uav.fixed import FIXED_FRACTIONS, fixed_sensor_problem
 from .uav.manoeuvres import default_sizes
-from .world import GoalRegion, Region2D, World, fmt, free_space, ground_footprints, inside_polytopes
+from .world import GoalRegion, Polygons, Region2D, World, convex_ccw, fmt, inside_polytopes
 
 MAX_FILE_BYTES = 16 * 2**20  # a mission or world file larger than this is not one a person wrote
 MAX_COORDINATE_M = 1e7  # 10 000 km: an area beyond this is a unit mistake, and squares of it overflow
@@ -262,15 +262,14 @@ def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> Wo
         area.fail("max_m", f"must exceed min_m in every axis, got min {lo.tolist()} max {hi.tolist()}")
     area.finish()
 
-    obs_lo, obs_hi, names = [], [], []
+    footprints, z, names = [], [], []
     for i, t in enumerate(top.tables("obstacles", optional=True)):
         names.append(t.string("name", default=f"obstacle{i}"))
-        o_lo, o_hi = t.array("min_m", (3,)), t.array("max_m", (3,))
-        if np.any(o_hi <= o_lo):
-            t.fail("max_m", f"must exceed min_m in every axis, got min {o_lo.tolist()} max {o_hi.tolist()}")
-        _check_obstacle_in_area(t, names[-1], o_lo, o_hi, lo, hi)
+        footprint, z_range = _obstacle(t)
+        _check_obstacle_in_area(t, names[-1], np.r_[footprint.min(0), z_range[0]], np.r_[footprint.max(0), z_range[1]],
+                                lo, hi)
         t.finish()
-        obs_lo.append(o_lo), obs_hi.append(o_hi)
+        footprints.append(footprint), z.append(z_range)
 
     goals, goal_tables = [], top.tables("goals")
     for t in goal_tables:
@@ -281,11 +280,7 @@ def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> Wo
         t.finish()
     top.finish()
 
-    world = World(
-        name=name, area_lo=lo, area_hi=hi,
-        obstacle_lo=np.array(obs_lo).reshape(-1, 3), obstacle_hi=np.array(obs_hi).reshape(-1, 3),
-        obstacle_names=tuple(names), goals=tuple(goals),
-    )
+    world = _world(name, lo, hi, footprints, np.array(z).reshape(-1, 2), names, goals)
     if len({g.name for g in goals}) != len(goals):
         goal_tables[-1].fail("name", "goal names must be unique")
     for t, g in zip(goal_tables, goals):
@@ -295,16 +290,55 @@ def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> Wo
     return world
 
 
+def _obstacle(t: _Table) -> tuple[np.ndarray, np.ndarray]:
+    """An obstacle's footprint ``(k, 2)`` and ``[z_min, z_max]``: a cuboid (``min_m``,
+    ``max_m``) or a vertical prism over a convex polygon (``footprint_m``, counter-clockwise
+    ``[x, y]`` vertices, and ``z_m``)."""
+    if t.has("footprint_m") or t.has("z_m"):
+        for other in ("min_m", "max_m"):
+            if t.has(other):
+                t.fail(other, "an obstacle is a cuboid (min_m, max_m) or a prism (footprint_m, z_m), not both")
+        footprint, z_range = t.array("footprint_m", (None, 2)), t.array("z_m", (2,))
+        problem = convex_ccw(footprint)
+        if problem:
+            t.fail("footprint_m", f"must be a convex polygon listed counter-clockwise; this one {problem}")
+        if z_range[1] <= z_range[0]:
+            t.fail("z_m", f"must be [z_min, z_max] with z_max > z_min, got {z_range.tolist()}")
+        return footprint, z_range
+    o_lo, o_hi = t.array("min_m", (3,)), t.array("max_m", (3,))
+    if np.any(o_hi <= o_lo):
+        t.fail("max_m", f"must exceed min_m in every axis, got min {o_lo.tolist()} max {o_hi.tolist()}")
+    return np.array([o_lo[:2], [o_hi[0], o_lo[1]], o_hi[:2], [o_lo[0], o_hi[1]]]), np.array([o_lo[2], o_hi[2]])
+
+
+def _world(name, lo, hi, footprints, z, names, goals) -> World:
+    """A world of cuboids where every footprint is an axis-aligned rectangle (their faces
+    in the order of :meth:`Polygons.boxes`), else of prisms."""
+    boxes = all(len(f) == 4 and np.all(f == Polygons.boxes(f[0], f[2]).vertices[0]) for f in footprints)
+    if boxes:
+        f = np.array(footprints).reshape(-1, 4, 2)
+        return World(name, lo, hi, np.column_stack([f[:, 0], z[:, 0]]), np.column_stack([f[:, 2], z[:, 1]]),
+                     tuple(names), tuple(goals))
+    return World.of_prisms(name, lo, hi, Polygons.from_list(footprints), z, names, goals)
+
+
 def _check_obstacle_in_area(t: _Table, name: str, o_lo, o_hi, lo, hi) -> None:
-    """An obstacle must lie inside the area: name it and say by how much it overhangs."""
+    """An obstacle must lie inside the area: name it and say by how much it overhangs (its
+    bounding box ``o_lo..o_hi``; the key named is the one that sets the offending side)."""
+    prism = t.has("footprint_m")
+
+    def key(axes, end: str) -> str:
+        return ("z_m" if not np.any(axes[:2]) else "footprint_m") if prism else end
+
     area = f"the area {fmt(lo)}..{fmt(hi)}"
-    if np.any(o_hi <= lo) or np.any(o_lo >= hi):
-        t.fail("min_m", f"obstacle '{name}' {fmt(o_lo)}..{fmt(o_hi)} lies entirely outside {area}")
+    outside = (o_hi <= lo) | (o_lo >= hi)
+    if np.any(outside):
+        t.fail(key(outside, "min_m"), f"obstacle '{name}' {fmt(o_lo)}..{fmt(o_hi)} lies entirely outside {area}")
     below, above = lo - o_lo, o_hi - hi
     if np.any(below > 0) or np.any(above > 0):
         parts = [f"{d:g} m {side} {axis} {end}" for ds, side, end in ((below, "below", "min"), (above, "beyond", "max"))
                  for axis, d in zip("xyz", ds) if d > 0]
-        t.fail("max_m" if np.any(above > 0) else "min_m",
+        t.fail(key((below > 0) | (above > 0), "max_m" if np.any(above > 0) else "min_m"),
                f"obstacle '{name}' {fmt(o_lo)}..{fmt(o_hi)} extends outside {area}: {', '.join(parts)}")
 
 
@@ -532,13 +566,15 @@ def _check_goals_reachable(path: Path, world: World, dynamics: Dynamics, guidanc
                            targets: tuple[Target, ...]) -> None:
     """Reject a goal no plan can reach, where geometry decides it exactly: the goal region
     lies wholly inside the inflated obstacles, or no free path joins the target's start
-    to it (:class:`uavsim.world.FreeSpace`).  Obstacles are inflated as guidance does,
-    by ``delta = speed_max dt / 2 + clearance``, and those off the ground are ignored."""
+    to it (:class:`uavsim.world.space.FreeSpace`).  Obstacles are inflated as guidance
+    does, by ``delta = speed_max dt / 2 + clearance``, and those off the ground are ignored."""
+    from .world.space import free_space
+
     margin = guidance.speed_max * dynamics.dt / 2.0 + guidance.clearance
-    kept, lo, hi = ground_footprints(world.obstacle_lo, world.obstacle_hi, margin)
+    kept, ground = world.ground(margin)
     if not len(kept):
         return
-    space = free_space(lo, hi, world.area_lo, world.area_hi, [(g.lo, g.hi) for g in world.goals])
+    space = free_space(ground, world.area_lo, world.area_hi)
     inflated = f"inflated by {margin:g} m = speed_max_mps * dt_s / 2 + clearance_m"
 
     def names(idx) -> str:

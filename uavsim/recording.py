@@ -63,6 +63,26 @@ def blueprint(mission: Mission) -> rrb.Blueprint:
     )
 
 
+
+def prism_mesh(footprints, z_lo: np.ndarray, z_hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A triangle mesh of vertical prisms: ``positions (n 2F, 3)`` (each footprint's
+    vertices at its bottom, then at its top) and ``triangles (k, 3)``: two per side and a
+    fan over the top; padded sides (zero length) are left out."""
+    n, f = len(footprints), footprints.width
+    v = footprints.vertices
+    positions = np.concatenate([np.dstack([v, np.broadcast_to(z_lo[:, None], (n, f))]),
+                                np.dstack([v, np.broadcast_to(z_hi[:, None], (n, f))])], axis=1).reshape(-1, 3)
+    base = (2 * f * np.arange(n))[:, None]
+    i = np.arange(f)[None, :]
+    nxt = np.where(i + 1 < footprints.sides[:, None], i + 1, 0)
+    side_a = np.stack([base + i, base + nxt, base + f + i], axis=-1)
+    side_b = np.stack([base + nxt, base + f + nxt, base + f + i], axis=-1)
+    top = np.stack([base + f + 0 * i, base + f + i, base + f + nxt], axis=-1)
+    valid = footprints.valid
+    fan = valid & (i >= 1) & (i + 1 < footprints.sides[:, None])
+    triangles = np.concatenate([side_a[valid], side_b[valid], top[fan]])
+    return positions, triangles
+
 class Recorder:
     """Log one trial to ``path``; use as the ``on_step`` callback, then :meth:`close`.
 
@@ -96,10 +116,18 @@ class Recorder:
         size = " x ".join(f"{v:g}" for v in w.area_hi - w.area_lo)
         rec.log("world/area", rr.LineStrips3D([[[x0, y0, 0], [x1, y0, 0], [x1, y1, 0], [x0, y1, 0], [x0, y0, 0]]],
                                               colors=[[160, 160, 160]], labels=[f"area {size} m"]), static=True)
-        if w.n_obstacles:
+        if w.n_obstacles and w.prisms is None:
             rec.log("world/obstacles", rr.Boxes3D(mins=w.obstacle_lo, sizes=w.obstacle_hi - w.obstacle_lo,
                                                   labels=list(w.obstacle_names), colors=[[120, 120, 130, 200]],
                                                   fill_mode=rr.components.FillMode.Solid), static=True)
+        elif w.n_obstacles:
+            positions, triangles = prism_mesh(w.footprints, w.obstacle_lo[:, 2], w.obstacle_hi[:, 2])
+            rec.log("world/obstacles", rr.Mesh3D(vertex_positions=positions, triangle_indices=triangles,
+                                                 albedo_factor=[120, 120, 130, 200]), static=True)
+            rings = [np.column_stack([v[np.r_[:k, 0]], np.full(k + 1, top)])
+                     for v, k, top in zip(w.footprints.vertices, w.footprints.sides, w.obstacle_hi[:, 2])]
+            rec.log("world/obstacles/outlines", rr.LineStrips3D(rings, labels=list(w.obstacle_names),
+                                                                colors=[[90, 90, 100]]), static=True)
         rec.log("world/goals", rr.Boxes3D(mins=[[*g.lo, 0.0] for g in w.goals],
                                           sizes=[[*(g.hi - g.lo), 0.5] for g in w.goals],
                                           labels=[g.name for g in w.goals], colors=[[220, 40, 40, 160]],

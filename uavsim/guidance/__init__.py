@@ -62,7 +62,7 @@ class Plan:
     iterations : master MILPs solved; solve_seconds : wall time.
     controls : (T, 3) N, ``u_{t+tau|t}``; means : (T, 6) ``mu_{t+tau+1|t}`` (Eq. 6, 8b);
     covs : (T, 6, 6) ``Sigma_{t+tau+1|t}`` (Eq. 6).
-    faces : (T-1, n, 4) active-face choice (warm start); terms : (K,) squared terms.
+    faces : (T-1, n, F) active-face choice (warm start); terms : (K,) squared terms.
     first_step_in_margin : ``mu_{t+1|t}``, fixed by the start, lies inside an obstacle's
         safety margin (its avoidance constraint cannot be enforced; see model docstring).
     moved_start : no plan started from the belief's mean; this one starts from a nearby
@@ -318,8 +318,7 @@ class Guidance:
         return Plan(status, np.inf, lower, np.inf, 0, time.perf_counter() - t0, None, None, None, message=message)
 
     def _in_margin(self, mean1: np.ndarray) -> bool:
-        g = self.geom
-        return bool(np.any(np.all((mean1[:2] >= g.lo) & (mean1[:2] <= g.hi), axis=1)))
+        return bool(self.geom.polys.contains(mean1[:2]).any())
 
     def _solve_scip(self, p, x0, goal, box=None):
         """The same cvxpy model, solved by SCIP (optional extra ``pyscipopt``).
@@ -345,8 +344,8 @@ class Guidance:
             return "error", np.inf, np.nan, None, None, None, 0, f"SCIP: {status}"
         obj = float(p.problem.value)
         lb = obj if status == cp.OPTIMAL else np.nan
-        n = len(p.geom.kept)
-        y = np.round(p.y.value).reshape(p.horizon - 1, n, 4) if n else np.zeros((p.horizon - 1, 0, 4))
+        n, f = p.geom.face_offsets.shape
+        y = np.round(p.y.value).reshape(p.horizon - 1, n, f) if n else np.zeros((p.horizon - 1, 0, f))
         terms = np.r_[p.e.value, p.d.value.reshape(-1, order="F")]
         return ("optimal" if status == cp.OPTIMAL else "feasible"), obj, lb, p.u.value, y, terms, 0, "SCIP via cvxpy"
 

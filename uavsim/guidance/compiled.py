@@ -69,6 +69,7 @@ class Compiled:
     u_cols: np.ndarray  # (T, 2)
     sum_rows: np.ndarray  # rows of Eq. (8e)
     row_y: np.ndarray  # (rows,) for a big-M row of Eq. (8d), its binary (flat index into y_cols); else -1
+    normals: np.ndarray  # (n, F, 2) the faces' outward unit normals: y_cols is (T-1, n F), face i of j at F j + i
     terminal_rows: np.ndarray | None = None  # (2,) the area rows of p_T (x, y): a hard terminal tightens them
 
     @property
@@ -141,7 +142,7 @@ def compile_p1(p1: P1) -> Compiled:
         param_rows=np.flatnonzero(np.any(lo_map != 0, axis=1) | np.any(hi_map != 0, axis=1)).astype(np.int32),
         col_lo=col_lo, col_hi=col_hi, y_cols=y_cols.astype(np.int32), term_cols=term_cols,
         term_w=diag[term_cols] / 2.0, n_terms_e=len(e_cols), x_cols=_cols(pp, p1.x),
-        u_cols=_cols(pp, p1.u), sum_rows=sum_rows.astype(np.int32), row_y=row_y,
+        u_cols=_cols(pp, p1.u), sum_rows=sum_rows.astype(np.int32), row_y=row_y, normals=p1.geom.face_normals,
     )
 
 
@@ -150,17 +151,17 @@ def assemble_p1(geom: Geometry, dt: float, friction: float, mass: float, horizon
     """The program of :func:`compile_p1`, written row by row (see module docstring).
 
     Columns: ``x (T+1, 4)`` row-major, ``u (T, 2)``, ``e (2,)``, ``d (T-1, 2)`` stored
-    column-major as cvxpy does (all d_x, then all d_y), ``y (T-1, n, 4)``.  Rows, in
+    column-major as cvxpy does (all d_x, then all d_y), ``y (T-1, n, F)``.  Rows, in
     order: start (8c), position and velocity dynamics (8b), terminal error, control
     increments, force bounds, speed polygon, area (8f), avoidance (8d) and one face per
     obstacle and step (8e).  ``rho`` and ``force_max`` in the model's units (kN).
     """
-    t, n = horizon, len(geom.face_offsets)
+    t, (n, f) = horizon, geom.face_offsets.shape
     x_cols = np.arange((t + 1) * 4).reshape(t + 1, 4)
     u_cols = x_cols.size + np.arange(t * 2).reshape(t, 2)
     e_cols = u_cols.size + x_cols.size + np.arange(2)
     d_cols = e_cols[-1] + 1 + np.arange((t - 1) * 2).reshape(2, t - 1).T  # column-major, as cvxpy
-    y_cols = d_cols.size + e_cols[-1] + 1 + np.arange((t - 1) * n * 4).reshape(t - 1, n * 4)
+    y_cols = d_cols.size + e_cols[-1] + 1 + np.arange((t - 1) * n * f).reshape(t - 1, n * f)
     n_cols = y_cols.size + d_cols.size + e_cols[-1] + 1
     rows = _Rows()
     k = np.arange(t)
@@ -183,15 +184,15 @@ def assemble_p1(geom: Geometry, dt: float, friction: float, mass: float, horizon
     row_y = np.full(rows.count, -1)
     if n:
         # -(a_i . p) - M_i y <= -b_i for face i of obstacle j at step r (tau = r + 2)
-        r, j, i = np.unravel_index(np.arange((t - 1) * n * 4), (t - 1, n, 4))
-        axis, sign = np.array([0, 0, 1, 1])[i], np.array([1.0, -1.0, 1.0, -1.0])[i]
-        cols = np.c_[x_cols[r + 2, axis], y_cols.reshape(-1)]
-        coef = np.c_[-sign, -geom.big_m[j, i]]
+        r, j, i = np.unravel_index(np.arange((t - 1) * n * f), (t - 1, n, f))
+        a = geom.face_normals[j, i]
+        cols = np.c_[x_cols[r + 2, 0], x_cols[r + 2, 1], y_cols.reshape(-1)]
+        coef = np.c_[-a, -geom.big_m[j, i]]
         first = rows.count
         rows.box(cols, coef, -INF, -geom.face_offsets[j, i])
         row_y = np.r_[row_y, np.arange(len(r))]
         sums = first + len(r)
-        rows.box(y_cols.reshape(-1, 4), np.ones(4), -INF, 3.0)  # Eq. (8e) without the z-faces
+        rows.box(y_cols.reshape(-1, f), np.ones(f), -INF, f - 1.0)  # Eq. (8e) without the z-faces
         row_y = np.r_[row_y, np.full(rows.count - len(row_y), -1)]
         sum_rows = np.arange(sums, rows.count)
     else:
@@ -205,7 +206,8 @@ def assemble_p1(geom: Geometry, dt: float, friction: float, mass: float, horizon
         param_rows=np.flatnonzero(np.any(lo_map != 0, axis=1)).astype(np.int32),
         col_lo=col_lo, col_hi=col_hi, y_cols=y_cols.astype(np.int32), term_cols=term_cols,
         term_w=np.r_[1.0, 1.0, np.full(2 * (t - 1), rho)], n_terms_e=2, x_cols=x_cols, u_cols=u_cols,
-        sum_rows=sum_rows.astype(np.int32), row_y=row_y, terminal_rows=np.array(terminal_rows),
+        sum_rows=sum_rows.astype(np.int32), row_y=row_y, normals=geom.face_normals,
+        terminal_rows=np.array(terminal_rows),
     )
 
 
@@ -234,7 +236,8 @@ class _Rows:
         rows = np.concatenate([np.repeat(np.arange(b[0].shape[0]), b[0].shape[1]) for b in self.blocks])
         starts = np.cumsum([0] + [b[0].shape[0] for b in self.blocks[:-1]])
         rows = rows + np.repeat(starts, [b[0].size for b in self.blocks])
-        a = sp.csr_matrix((data, (rows, cols)), shape=(self.count, n_cols))
+        nz = data != 0  # an axis-aligned face has one position coefficient, not two
+        a = sp.csr_matrix((data[nz], (rows[nz], cols[nz])), shape=(self.count, n_cols))
         a.sum_duplicates()
         lo = np.concatenate([b[2] for b in self.blocks]).astype(float)
         hi = np.concatenate([b[3] for b in self.blocks]).astype(float)

@@ -1,8 +1,9 @@
 """Which obstacle faces can matter: reachable sets, pruning, tight big-M, start heuristics.
 
-Face index i of an obstacle runs over +x, -x, +y, -y (:data:`.model.FACE_NORMALS`);
-``y[r, j, i]`` (step tau = r + 2, kept obstacle j) follows the paper: 1 switches the face
-off, and at least one face per obstacle and step stays on (Eq. 8e).
+Obstacle j has F faces (a convex footprint's edges, padded: :class:`uavsim.world.Polygons`),
+face i with outward unit normal ``a_ji`` (:class:`Faces`); ``y[r, j, i]`` (step tau =
+r + 2) follows the paper: 1 switches the face off, and at least one face per obstacle and
+step stays on (Eq. 8e).  A padded face repeats face 0 and is never switched on.
 """
 
 from __future__ import annotations
@@ -11,7 +12,43 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model import FACE_NORMALS
+AXES = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])  # +x, -x, +y, -y: a box's supports
+
+
+@dataclass(frozen=True, eq=False)
+class Faces:
+    """The avoidance faces of the kept obstacles: ``normals (n, F, 2)`` outward unit,
+    ``valid (n, F)`` (False: padding), ``neighbours (n, F, 2)`` the faces meeting each
+    face at its ends (a path round a corner passes from one to the other)."""
+
+    normals: np.ndarray
+    valid: np.ndarray
+    neighbours: np.ndarray
+
+    @property
+    def width(self) -> int:
+        return self.normals.shape[1]
+
+    def slack(self, points: np.ndarray, b: np.ndarray) -> np.ndarray:
+        """(T-1, n, F) signed clearance ``a_i . p - b_i`` of ``points (T-1, 2)`` (>= 0:
+        beyond face i); ``-inf`` on padded faces."""
+        s = np.einsum("rd,nfd->rnf", points, self.normals) - b
+        return np.where(self.valid, s, -np.inf)
+
+
+@dataclass(frozen=True, eq=False)
+class Bounds:
+    """Where ``p_tau`` (tau = 2..T) can be: ``box_lo, box_hi (T-1, 2)`` a bounding box
+    per step, and ``lo, hi (T-1, n, F)`` bounds of ``a_i . p_tau`` per face."""
+
+    box_lo: np.ndarray
+    box_hi: np.ndarray
+    lo: np.ndarray
+    hi: np.ndarray
+
+    @property
+    def boxes(self) -> tuple[np.ndarray, np.ndarray]:
+        return self.box_lo, self.box_hi
 
 
 @dataclass(frozen=True)
@@ -30,9 +67,10 @@ class Reach:
       is in C0, so ``f <= UB`` implies ``|p_tau - p0_tau|_2 <= sigma_tau sqrt(UB - f0)``
       with ``sigma_tau^2 = g_tau' H^-1 g_tau`` (the two axes share one budget).
 
-    For each face direction ``a_i`` the support functions of these sets bound
-    ``a_i . p_tau`` from above and below; the intersection obeys the tightest bound.
-    Arrays are indexed by tau = 0..T.
+    The sets are boxes (force, area, a hard terminal's region) and disks; a face direction
+    ``a_i`` is bounded by the tightest of their support functions (a box: centre value
+    +- ``|a_x| h_x + |a_y| h_y``; a disk: centre value +- radius).  Arrays are indexed by
+    tau = 0..T.
     """
 
     dt: float
@@ -66,8 +104,9 @@ class Reach:
     def horizon(self) -> int:
         return len(self.sigma) - 1
 
-    def face_bounds(self, x0, goal, ub=np.inf, relaxed=None, box=None) -> tuple[np.ndarray, np.ndarray]:
-        """``(lo, hi)``, each ``(T-1, 4)``: bounds of ``a_i . p_tau`` for tau = 2..T.
+    def face_bounds(self, x0, goal, normals: np.ndarray, ub=np.inf, relaxed=None, box=None) -> Bounds:
+        """:class:`Bounds` of ``p_tau`` for tau = 2..T and of ``a_i . p_tau`` for the face
+        ``normals (n, F, 2)``.
 
         ``x0 = [p_x, p_y, v_x, v_y]`` the start; ``relaxed = (points (T-1, 2), f0)`` the
         obstacle-free optimum, for the growth disk (used when ``ub`` is finite); ``box =
@@ -75,12 +114,9 @@ class Reach:
         within ``(T - tau) dt v_max`` of it.
         """
         tau = np.arange(2, self.horizon + 1)[:, None]
-        ax = FACE_NORMALS
-        area = np.array([self.area_lo, self.area_hi]) @ ax.T  # (2, 4)
         free = x0[None, :2] + self.free[2:, None] * x0[None, 2:]
-        # faces are axis-aligned: the support of a box is its centre's value +- its half-width
-        lo = np.maximum(area.min(0), free @ ax.T - self.force[2:, None])
-        hi = np.minimum(area.max(0), free @ ax.T + self.force[2:, None])
+        boxes = [(np.maximum(self.area_lo, free - self.force[2:, None]),
+                  np.minimum(self.area_hi, free + self.force[2:, None]), 0.0)]
         p1 = x0[:2] + self.dt * x0[2:]
         disks = [(p1[None, :], (tau - 1) * self.dt * self.v_max)]
         if np.isfinite(ub):
@@ -89,78 +125,101 @@ class Reach:
                 points, f0 = relaxed
                 budget = max(ub - f0, 0.0) * (1 + 1e-6) + 1e-6 * max(ub, 1.0)  # solver round-off
                 disks.append((points, self.sigma[2:, None] * np.sqrt(budget) + 1e-3))
+        if box is not None:  # the region grown by the remaining travel: a box plus a disk
+            boxes.append((np.asarray(box[0])[None, :], np.asarray(box[1])[None, :],
+                          (self.horizon - tau) * self.dt * self.v_max))
+        lo, hi = boxes[0][0], boxes[0][1]
+        for b_lo, b_hi, grow in boxes[1:]:
+            lo, hi = np.maximum(lo, b_lo - grow), np.minimum(hi, b_hi + grow)
         for centre, radius in disks:
-            lo = np.maximum(lo, centre @ ax.T - radius)
-            hi = np.minimum(hi, centre @ ax.T + radius)
-        if box is not None:
-            ends = np.array(box) @ ax.T  # (2, 4): a_i . lo, a_i . hi
-            radius = (self.horizon - tau) * self.dt * self.v_max
-            lo = np.maximum(lo, ends.min(0) - radius)
-            hi = np.minimum(hi, ends.max(0) + radius)
-        return lo, hi
+            lo, hi = np.maximum(lo, centre - radius), np.minimum(hi, centre + radius)
+        f_lo, f_hi = _box_support(lo, hi, normals)
+        for b_lo, b_hi, grow in boxes[1:]:
+            s_lo, s_hi = _box_support(np.broadcast_to(b_lo, lo.shape), np.broadcast_to(b_hi, hi.shape), normals)
+            g = np.broadcast_to(grow, (len(lo), 1))[..., None]
+            f_lo, f_hi = np.maximum(f_lo, s_lo - g), np.minimum(f_hi, s_hi + g)
+        for centre, radius in disks:
+            c = np.einsum("rd,nfd->rnf", np.broadcast_to(centre, lo.shape), normals)
+            f_lo, f_hi = np.maximum(f_lo, c - radius[..., None]), np.minimum(f_hi, c + radius[..., None])
+        return Bounds(lo, hi, f_lo, f_hi)
 
 
-def step_boxes(face_lo: np.ndarray, face_hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(lo, hi)``, each ``(T-1, 2)``: the bounding box of the reachable set per step, from
-    :meth:`Reach.face_bounds` (faces +x, -x, +y, -y bound ``x``, ``-x``, ``y``, ``-y``)."""
-    lo = np.column_stack([np.maximum(face_lo[:, 0], -face_hi[:, 1]), np.maximum(face_lo[:, 2], -face_hi[:, 3])])
-    hi = np.column_stack([np.minimum(face_hi[:, 0], -face_lo[:, 1]), np.minimum(face_hi[:, 2], -face_lo[:, 3])])
-    return lo, hi
+def _box_support(lo: np.ndarray, hi: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(min, max)`` of ``a . p`` over the boxes ``[lo, hi] (T-1, 2)``: ``(T-1, n, F)`` each
+    (per axis the larger or smaller of ``a_k lo_k`` and ``a_k hi_k``: exact for axis faces)."""
+    at_lo = np.einsum("rd,nfd->rnfd", lo, normals)
+    at_hi = np.einsum("rd,nfd->rnfd", hi, normals)
+    return np.minimum(at_lo, at_hi).sum(axis=-1), np.maximum(at_lo, at_hi).sum(axis=-1)
 
 
-def beyond(boxes: tuple[np.ndarray, np.ndarray], r: int, i: int, b: float, step: float):
-    """The boxes of :func:`step_boxes` once ``p_tau`` (row ``r``) is beyond face ``i`` at
-    offset ``b`` (``a_i . p >= b``), closed under the speed limit: row ``r'`` keeps within
-    ``|r - r'| step`` of row ``r`` per axis (``step = v_max dt``: no point moves farther in
-    one step).  None when some box empties: no plan within reach is beyond that face
+def beyond(boxes: tuple[np.ndarray, np.ndarray], r: int, normal: np.ndarray, b: float, step: float):
+    """The step boxes of :class:`Bounds` once ``p_tau`` (row ``r``) is beyond a face
+    (``normal . p >= b``): row r shrinks to the bounding box of its part beyond the
+    face, and the rest is closed under the speed limit (row ``r'`` keeps within
+    ``|r - r'| step`` of row ``r`` per axis; ``step = v_max dt``: no point moves farther
+    in one step).  None when some box empties: no plan within reach is beyond that face
     there (a branch-and-bound child that needs no QP)."""
     lo, hi = boxes[0].copy(), boxes[1].copy()
-    axis = i // 2
-    if i % 2 == 0:
-        lo[r, axis] = max(lo[r, axis], b)
-    else:
-        hi[r, axis] = min(hi[r, axis], -b)
-    d = np.abs(np.arange(len(lo)) - r) * step
-    lo[:, axis] = np.maximum(lo[:, axis], lo[r, axis] - d)
-    hi[:, axis] = np.minimum(hi[:, axis], hi[r, axis] + d)
-    return None if np.any(lo[:, axis] > hi[:, axis] + 1e-7) else (lo, hi)
+    clipped = _clip_box(lo[r], hi[r], np.asarray(normal, dtype=float), b)
+    if clipped is None:
+        return None
+    lo[r], hi[r] = clipped
+    d = np.abs(np.arange(len(lo)) - r)[:, None] * step
+    lo = np.maximum(lo, lo[r] - d)
+    hi = np.minimum(hi, hi[r] + d)
+    return None if np.any(lo > hi + 1e-7) else (lo, hi)
 
 
-def redundant(face_lo: np.ndarray, b: np.ndarray) -> np.ndarray:
+def _clip_box(lo: np.ndarray, hi: np.ndarray, a: np.ndarray, b: float):
+    """Bounding box ``(lo, hi)`` of ``[lo, hi] ∩ {a . p >= b}``, None if empty (within 1e-7)."""
+    corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
+    val = corners @ a - b
+    if val.max() < -1e-7:
+        return None
+    nxt, vnext = np.roll(corners, -1, axis=0), np.roll(val, -1)
+    cross = (val < 0) != (vnext < 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(cross, val / (val - vnext), 0.0)
+    pts = np.vstack([corners[val >= 0], (corners + t[:, None] * (nxt - corners))[cross]])
+    if not len(pts):  # the box only touches the face's line (within tolerance)
+        pts = corners[np.argmax(val)][None]
+    return pts.min(axis=0), pts.max(axis=0)
+
+
+def redundant(face_lo: np.ndarray, b: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """``(T-1, n)`` bool: (step, obstacle) pairs where every reachable point is beyond
     some face, so the obstacle cannot be hit at that step and its avoidance rows are
     redundant (a QP may leave them out; :func:`prune` fixes that face on)."""
-    return (face_lo[:, None, :] >= b).any(axis=2)
+    return ((face_lo >= b) & valid).any(axis=2)
 
 
-def stuck_pairs(face_hi: np.ndarray, b: np.ndarray) -> np.ndarray:
+def stuck_pairs(face_hi: np.ndarray, b: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """``(T-1, n)`` bool: (step, obstacle) pairs where no reachable point is beyond any face,
     i.e. the target cannot be out of that inflated obstacle at that step whatever it does
-    (a start inside or against it).  The solver drops those avoidance constraints rather
-    than declaring the plan infeasible; the plan leaves the obstacle as soon as it can."""
-    return ~(face_hi[:, None, :] >= b).any(axis=2)
+    (a start inside or against it)."""
+    return ~((face_hi >= b) & valid).any(axis=2)
 
 
-def prune(face_lo: np.ndarray, face_hi: np.ndarray, b: np.ndarray,
+def prune(face_lo: np.ndarray, face_hi: np.ndarray, b: np.ndarray, valid: np.ndarray,
           stuck: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray] | None:
     """Fix the binaries the reachable set decides.  Returns ``(y_lo, y_hi)`` of shape
-    ``(T-1, n, 4)`` or None when some step has no reachable face (infeasible).
+    ``(T-1, n, F)`` or None when some step has no reachable face (infeasible).
 
-    * a face no reachable point can satisfy cannot be the active one: ``y = 1``;
+    * a face no reachable point can satisfy, or a padded face, cannot be the active one: ``y = 1``;
     * if every reachable point satisfies face i, the obstacle cannot be hit at that
       step: activate i (``y_i = 0``, a redundant constraint), switch the others off;
     * a single remaining face must be the active one (Eq. 8e);
     * ``stuck`` pairs (:func:`stuck_pairs`, decided once per solve) have every face off.
     """
-    reachable = face_hi[:, None, :] >= b  # (T-1, n, 4)
+    reachable = (face_hi >= b) & valid
     if stuck is not None:
         reachable = reachable & ~stuck[..., None]
-    surely = face_lo[:, None, :] >= b
+    surely = (face_lo >= b) & valid
     y_lo = (~reachable).astype(float)
     y_hi = np.ones_like(y_lo)
-    free = redundant(face_lo, b)
+    free = surely.any(axis=2)
     pick = np.argmax(surely, axis=2)
-    onehot = np.arange(4)[None, None, :] == pick[..., None]
+    onehot = np.arange(b.shape[2])[None, None, :] == pick[..., None]
     y_lo = np.where(free[..., None], (~onehot).astype(float), y_lo)
     y_hi = np.where(free[..., None], y_lo, y_hi)
     n_open = (y_lo == 0).sum(axis=2)
@@ -171,34 +230,27 @@ def prune(face_lo: np.ndarray, face_hi: np.ndarray, b: np.ndarray,
     return y_lo, y_hi
 
 
-def choose_faces(points: np.ndarray, b: np.ndarray, y_lo: np.ndarray, y_hi: np.ndarray) -> np.ndarray:
+def choose_faces(points: np.ndarray, faces: Faces, b: np.ndarray, y_lo: np.ndarray, y_hi: np.ndarray) -> np.ndarray:
     """A complete face choice: per step and obstacle, the allowed face with the largest
     slack ``a_i . p - b_i`` at ``points (T-1, 2)`` (the face the point is most clearly
     beyond).  Pairs with no allowed face (stuck, see :func:`prune`) stay all off.
-    Returns y (T-1, n, 4) in {0, 1} within the bounds."""
-    slack = np.where(y_lo == 0, _slack(points, b), -np.inf)
+    Returns y (T-1, n, F) in {0, 1} within the bounds."""
+    slack = np.where(y_lo == 0, faces.slack(points, b), -np.inf)
     forced = y_hi == 0
     slack = np.where(forced.any(axis=2, keepdims=True), np.where(forced, np.inf, -np.inf), slack)
     pick = np.argmax(slack, axis=2)
-    y = (np.arange(4)[None, None, :] != pick[..., None]).astype(float)
+    y = (np.arange(b.shape[2])[None, None, :] != pick[..., None]).astype(float)
     return np.where((y_lo == 1).all(axis=2, keepdims=True), 1.0, y)
 
 
-
-
-def _slack(points: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(T-1, n, 4) signed clearance ``a_i . p - b_i`` (>= 0: beyond face i)."""
-    return (points @ FACE_NORMALS.T)[:, None, :] - b
-
-
-def inside(points: np.ndarray, b: np.ndarray) -> np.ndarray:
+def inside(points: np.ndarray, faces: Faces, b: np.ndarray) -> np.ndarray:
     """(T-1, n) how deep each point is inside each inflated obstacle (<= 0: outside)."""
-    return -_slack(points, b).max(axis=2)
+    return -faces.slack(points, b).max(axis=2)
 
 
-def binding_faces(points: np.ndarray, y: np.ndarray, b: np.ndarray, tol: float = 1e-3) -> np.ndarray:
+def binding_faces(points: np.ndarray, faces: Faces, y: np.ndarray, b: np.ndarray, tol: float = 1e-3) -> np.ndarray:
     """``(k, 3)`` indices ``(step row, obstacle, face)`` of active faces the plan touches."""
-    return np.argwhere((y == 0) & (np.abs(_slack(points, b)) < tol))
+    return np.argwhere((y == 0) & (np.abs(faces.slack(points, b)) < tol))
 
 
 def _runs(mask: np.ndarray) -> list[np.ndarray]:
@@ -207,19 +259,19 @@ def _runs(mask: np.ndarray) -> list[np.ndarray]:
     return [np.arange(a, b) for a, b in zip(edges[::2], edges[1::2])]
 
 
-def extend_faces(y: np.ndarray, points: np.ndarray, b: np.ndarray, y_lo: np.ndarray,
+def extend_faces(y: np.ndarray, points: np.ndarray, faces: Faces, b: np.ndarray, y_lo: np.ndarray,
                  rank: int = 0) -> np.ndarray | None:
     """One step of the upper-bound dive: switch on faces where ``points (T-1, 2)`` are
     inside an inflated obstacle.  Returns the new choice, or None if nothing is violated.
 
-    ``y (T-1, n, 4)`` may leave a step's faces all off (that step is unconstrained for
+    ``y (T-1, n, F)`` may leave a step's faces all off (that step is unconstrained for
     that obstacle).  A run of consecutive violated steps gets one face for the whole run
-    (a path cannot jump from the +y side to the -y side in one step): the face its points
-    are nearest to in total, ``sum max(0, b_i - a_i . p)`` (``rank`` 1: the runner-up,
-    for an alternative dive), or, if the run touches steps already held on one face, that
-    face (the detour grows).
+    (a path cannot jump from one side to the opposite side in one step): the face its
+    points are nearest to in total, ``sum max(0, b_i - a_i . p)`` (``rank`` 1: the
+    runner-up, for an alternative dive), or, if the run touches steps already held on one
+    face, that face (the detour grows).
     """
-    slack = _slack(points, b)
+    slack = faces.slack(points, b)
     violated = np.all(slack < -1e-7, axis=2) & (y_lo == 0).any(axis=2)  # stuck pairs may be inside
     if not violated.any():
         return None
@@ -229,10 +281,10 @@ def extend_faces(y: np.ndarray, points: np.ndarray, b: np.ndarray, y_lo: np.ndar
         is_held = y[:, j, :].min(axis=1) == 0
         for run in _runs(violated[:, j]):
             near = [k for k in (run[0] - 1, run[-1] + 1) if 0 <= k < len(y) and is_held[k]]
-            reach = y_lo[run, j, :] == 0  # (len(run), 4): face reachable at that step
+            reach = y_lo[run, j, :] == 0  # (len(run), F): face reachable at that step
             cost = np.maximum(0.0, -slack[run, j, :]).sum(axis=0)
             ranked = np.argsort(np.where(reach.any(axis=0), cost, np.inf), kind="stable")
-            face = held[near[0]] if near and reach[:, held[near[0]]].all() else ranked[min(rank, 3)]
+            face = held[near[0]] if near and reach[:, held[near[0]]].all() else ranked[min(rank, len(ranked) - 1)]
             # where that face cannot be reached (the first steps, by the force limit), take
             # the reachable face the point is nearest to: the path turns a corner there
             nearest = np.argmax(np.where(reach, slack[run, j, :], -np.inf), axis=1)
@@ -245,8 +297,8 @@ def extend_faces(y: np.ndarray, points: np.ndarray, b: np.ndarray, y_lo: np.ndar
 
 
 def tight_big_m(face_lo: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(T-1, n, 4) per-step big-M: with ``y = 1`` face i must hold for every reachable
+    """(T-1, n, F) per-step big-M: with ``y = 1`` face i must hold for every reachable
     point, ``a_i . p >= b_i - M``, so ``M = b_i - min_reach a_i . p`` suffices.  Smaller
     than the area-based M of the model, hence a tighter LP relaxation in the master.
-    ``face_lo (T-1, 4)``, ``b (T-1, n, 4)``."""
-    return np.maximum(b - face_lo[:, None, :], 0.0)
+    ``face_lo, b (T-1, n, F)``."""
+    return np.maximum(b - face_lo, 0.0)

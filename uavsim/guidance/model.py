@@ -15,9 +15,9 @@ Modelling choices (each stated where the paper is silent):
   ``A`` from ``mu_t`` and is ~0 for ground targets.  The model plans ``(x, y)`` only.
   The z-faces of an obstacle cannot separate a ground target (its z lies strictly
   inside the inflated z-slab ``[z_min - delta, z_max + delta]`` because ``delta > 0``),
-  so only the four vertical faces get binaries, and an obstacle whose slab misses the
-  ground band ``|z| <= GROUND_BAND_M`` is dropped.  ``Sum_i y_i <= 3`` is Eq. (8e) with
-  the z-faces removed.
+  so only the F side faces of its prism get binaries (four for a cuboid), and an
+  obstacle whose slab misses the ground band ``|z| <= GROUND_BAND_M`` is dropped.
+  ``Sum_i y_i <= F - 1`` is Eq. (8e) with the z-faces removed.
 * **Sparse form.** States ``x_tau = [p_x, p_y, v_x, v_y]`` are variables linked by Eq.
   (8b) written step by step; this is Eq. (6)'s closed form, unrolled.  Only the start
   state and the goal are Parameters, so a re-plan changes right-hand sides only.
@@ -26,13 +26,16 @@ Modelling choices (each stated where the paper is silent):
 * **Speed.** ``||v||_2 <= v_max`` is replaced by an inscribed regular K-gon
   ``c_k . v <= v_max cos(pi / K)``: every vertex is on the circle, so the true speed
   never exceeds ``v_max`` (an inner approximation).
-* **Safe segments.** Obstacles are inflated by ``delta = v_max dt / 2 + clearance`` per
-  axis.  Proof that the straight segment between consecutive planned points then misses
-  the original cuboid: both points lie outside the inflated box, and the segment has
-  per-axis extent ``<= ||v||_2 dt <= v_max dt``.  If a point q of the segment were inside
-  the cuboid, the segment end nearer to q along the segment (parameter distance <= 1/2)
-  would be within ``v_max dt / 2`` of q in every axis, hence inside the inflated box: a
-  contradiction.  With ``clearance > 0`` the segment keeps strictly clear.
+* **Safe segments.** Every face of an obstacle's footprint is pushed out by ``delta =
+  v_max dt / 2 + clearance`` along its unit normal (for a cuboid: ``delta`` per axis).
+  Proof that the straight segment between consecutive planned points then misses the
+  original obstacle: both points lie outside the inflated one, and the segment is at most
+  ``||v||_2 dt <= v_max dt`` long.  If a point q of the segment were inside the
+  obstacle, the segment end nearer to q would be within ``v_max dt / 2`` of q, hence
+  within ``delta`` of the footprint, so on the inner side of every pushed-out face (a
+  face moves by ``delta`` along its normal, and ``a_i . (e - q) <= |e - q|``): inside the
+  inflated obstacle, a contradiction.  With ``clearance > 0`` the segment keeps strictly
+  clear.
 * **Tight big-M.** Face i of obstacle n is ``a_i . p >= b_i + delta`` (inflated).  With
   y = 1 it must hold for every p in the area, so ``M_i = b_i + delta - min_{p in area}
   a_i . p``: the smallest valid constant, from the area bounds.
@@ -51,7 +54,8 @@ import numpy as np
 
 from ..declare import setting
 from ..targets import Dynamics
-from ..world import World, ground_footprints
+from ..world import Polygons, World
+from .faces import Faces
 
 if TYPE_CHECKING:  # cvxpy is imported by build_p1 only: the fast path (uavsim.guidance.qp) never needs it
     import cvxpy as cp
@@ -102,21 +106,21 @@ class Geometry:
 
     Attributes
     ----------
-    margin : delta (m), the per-axis inflation.
-    lo, hi : (n, 2) inflated obstacle footprints of the obstacles kept (ground band).
+    margin : delta (m), the inflation (every footprint edge pushed out by it).
+    polys : the inflated footprints of the obstacles kept (ground band), n of them, F faces
+        each (padded; :class:`uavsim.world.Polygons`).
     kept : (n,) indices into ``World`` of the obstacles kept.
-    face_normals : (4, 2) outward normals of the faces +x, -x, +y, -y.
-    face_offsets : (n, 4) inflated offsets ``b_i + delta``.
-    big_m : (n, 4) tight big-M per face.
+    faces : their faces' normals, validity and neighbours (:class:`.faces.Faces`).
+    face_offsets : (n, F) inflated offsets ``b_i + delta``.
+    big_m : (n, F) tight big-M per face.
     speed_dirs : (K, 2) polygon face normals; speed_bound : ``v_max cos(pi/K)``.
     """
 
     margin: float
     clearance: float
-    lo: np.ndarray
-    hi: np.ndarray
+    polys: Polygons
     kept: np.ndarray
-    face_normals: np.ndarray
+    faces: Faces
     face_offsets: np.ndarray
     big_m: np.ndarray
     speed_dirs: np.ndarray
@@ -125,23 +129,34 @@ class Geometry:
     area_hi: np.ndarray
     names: tuple[str, ...] = ()  # of the obstacles kept, for messages
 
+    @property
+    def lo(self) -> np.ndarray:
+        """(n, 2) lower corners of the inflated footprints' bounding boxes."""
+        return self.polys.lo
 
-FACE_NORMALS = np.array([[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]])
+    @property
+    def hi(self) -> np.ndarray:
+        return self.polys.hi
+
+    @property
+    def face_normals(self) -> np.ndarray:
+        """(n, F, 2) outward unit normals."""
+        return self.faces.normals
 
 
 def geometry(world: World, dynamics: Dynamics, cfg: GuidanceConfig) -> Geometry:
     """Inflated obstacles, tight big-M and the speed polygon (see module docstring)."""
     margin = cfg.speed_max * dynamics.dt / 2.0 + cfg.clearance
-    kept, lo, hi = ground_footprints(world.obstacle_lo, world.obstacle_hi, margin)
-    offsets = np.stack([hi[:, 0], -lo[:, 0], hi[:, 1], -lo[:, 1]], axis=1)
+    kept, polys = world.ground(margin)
     a_lo, a_hi = world.area_lo[:2], world.area_hi[:2]
-    # min over the area of a_i . p: +x -> x_min, -x -> -x_max, +y -> y_min, -y -> -y_max
-    area_min = np.array([a_lo[0], -a_hi[0], a_lo[1], -a_hi[1]])
+    # min over the area of a_i . p, per axis the smaller of a_k lo_k and a_k hi_k
+    area_min = np.minimum(polys.normals * a_lo, polys.normals * a_hi).sum(axis=-1)
     k = cfg.speed_sides
     ang = 2.0 * np.pi * (np.arange(k) + 0.5) / k
     return Geometry(
-        margin=margin, clearance=cfg.clearance, lo=lo, hi=hi, kept=kept, face_normals=FACE_NORMALS,
-        face_offsets=offsets, big_m=offsets - area_min,
+        margin=margin, clearance=cfg.clearance, polys=polys, kept=kept,
+        faces=Faces(polys.normals, polys.valid, polys.neighbours()),
+        face_offsets=polys.offsets, big_m=polys.offsets - area_min,
         speed_dirs=np.column_stack([np.cos(ang), np.sin(ang)]),
         speed_bound=cfg.speed_max * np.cos(np.pi / k), area_lo=a_lo, area_hi=a_hi,
         names=tuple(world.obstacle_names[i] for i in kept),
@@ -153,8 +168,8 @@ class P1:
     """The cvxpy model of Problem (P1) for one target, with its handles.
 
     Variables: ``x (T+1, 4)`` states, ``u (T, 2)`` forces (kN), ``e (2,)`` terminal
-    error, ``d (T-1, 2)`` control increments (kN), ``y (T-1, 4 n)`` face binaries
-    (paper convention: ``y = 1`` switches a face off; column ``4 j + i`` is face i of
+    error, ``d (T-1, 2)`` control increments (kN), ``y (T-1, F n)`` face binaries
+    (paper convention: ``y = 1`` switches a face off; column ``F j + i`` is face i of
     kept obstacle j; row r is planned step ``tau = r + 2``).
     Parameters: ``x0 (4,)`` start ``[p_x, p_y, v_x, v_y]``, ``goal (2,)``, and with a hard
     terminal ``box (4,)`` the goal region ``[x_min, y_min, x_max, y_max]`` (else None).
@@ -193,7 +208,8 @@ def build_p1(world: World, dynamics: Dynamics, cfg: GuidanceConfig, fixed_faces:
     u = cp.Variable((t, 2), name="u")
     e = cp.Variable(2, name="e")
     d = cp.Variable((t - 1, 2), name="d")
-    shape = (t - 1, max(4 * n, 1))
+    f = geom.polys.width
+    shape = (t - 1, max(f * n, 1))
     # without obstacles there are no binaries: y is an unused Parameter and P1 is a QP
     y = cp.Parameter(shape, name="y") if fixed_faces or not n else cp.Variable(shape, boolean=True, name="y")
     x0 = cp.Parameter(4, name="x0")
@@ -213,14 +229,14 @@ def build_p1(world: World, dynamics: Dynamics, cfg: GuidanceConfig, fixed_faces:
         pos[2:] <= geom.area_hi,
     ]
     if n:
-        # a_i . p for the four faces of every kept obstacle, steps 2..T: (T-1, 4n)
-        lhs = pos[2:] @ np.tile(geom.face_normals.T, n)
-        per_obstacle = np.kron(np.eye(n), np.ones((4, 1)))  # (4n, n): sums each obstacle's 4 faces
+        # a_i . p for the F faces of every kept obstacle, steps 2..T: (T-1, F n)
+        lhs = pos[2:] @ geom.face_normals.reshape(-1, 2).T
+        per_obstacle = np.kron(np.eye(n), np.ones((f, 1)))  # (F n, n): sums each obstacle's faces
         cons += [
             lhs >= geom.face_offsets.reshape(-1) - cp.multiply(geom.big_m.reshape(-1), y),  # Eq. (8d)
         ]
         if not fixed_faces:
-            cons.append(y @ per_obstacle <= 3)  # Eq. (8e)
+            cons.append(y @ per_obstacle <= f - 1)  # Eq. (8e)
     box = cp.Parameter(4, name="box") if cfg.terminal == "hard" else None
     if box is not None:
         cons += [pos[t] >= box[:2], pos[t] <= box[2:]]

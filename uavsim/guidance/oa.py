@@ -74,7 +74,6 @@ from .faces import (
     inside,
     prune,
     redundant,
-    step_boxes,
     stuck_pairs,
     tight_big_m,
 )
@@ -188,7 +187,8 @@ class OuterApproximation:
         self.c = c
         self.qp = FixedFaceQP(self.c)
         self.offsets = geom.face_offsets
-        self.shape = (reach.horizon - 1, self.offsets.shape[0], 4)
+        self.faces = geom.faces
+        self.shape = (reach.horizon - 1, *self.offsets.shape)
         c, k = self.c, len(self.c.term_cols)
         self.a_master = sp.hstack([c.a, sp.csr_matrix((c.a.shape[0], k))]).tocsr()
         self.a_master.sort_indices()
@@ -260,19 +260,21 @@ class OuterApproximation:
         if self.shape[1] == 0:  # no obstacle on the ground: P1 is the QP
             relax = self._reference(lo, hi, relax)
             return Solution("optimal", relax.f, relax.f, 0.0, 0, relax)
-        face_lo, face_hi = self.reach.face_bounds(x0, goal, box=box)
-        stuck = stuck_pairs(face_hi, b)
+        valid = self.faces.valid
+        fb = self.reach.face_bounds(x0, goal, self.faces.normals, box=box)
+        face_lo, face_hi = fb.lo, fb.hi
+        stuck = stuck_pairs(face_hi, b, valid)
         if escape:
             stuck[:escape, near] = True
-        needed = ~redundant(face_lo, b) & ~stuck
+        needed = ~redundant(face_lo, b, valid) & ~stuck
         if budget.qps is None:
             budget.qps = max(1, int(budget.seconds / self.qp_seconds(int(needed.any(axis=0).sum()))))
-        if not np.any((inside(relax.x[2:, :2], b) > 1e-7) & ~stuck):  # the obstacle-free optimum is clear
-            y = choose_faces(relax.x[2:, :2], b, *prune(face_lo, face_hi, b, stuck))
+        if not np.any((inside(relax.x[2:, :2], self.faces, b) > 1e-7) & ~stuck):  # the obstacle-free optimum is clear
+            y = choose_faces(relax.x[2:, :2], self.faces, b, *prune(face_lo, face_hi, b, valid, stuck))
             plan = self._reference(lo, hi, replace(relax, y=y))
             return self._noted(Solution("optimal", plan.f, min(relax.f, plan.f), 0.0, 0, plan), stuck, budget)
         hi[self.c.sum_rows] = np.where(stuck.reshape(-1), 4.0, 3.0)  # Eq. (8e) off for stuck pairs
-        bounds = prune(face_lo, face_hi, b, stuck)
+        bounds = prune(face_lo, face_hi, b, valid, stuck)
         ctx = _Context(lo, hi, b, stuck, needed, relax, x0, goal, budget,
                        [relax.s] + ([warm[1]] if warm is not None else []), box)
         best = self._upper_bound(ctx, warm, bounds)
@@ -319,7 +321,7 @@ class OuterApproximation:
         a local search at the corners.  Stops early when the budget runs out with a plan."""
         best = None
         if warm is not None:
-            y = warm[0] if self._fits(warm[0], bounds) else choose_faces(warm[2], ctx.b, *bounds)
+            y = warm[0] if self._fits(warm[0], bounds) else choose_faces(warm[2], self.faces, ctx.b, *bounds)
             best = self._polish(ctx, self._qp(ctx, y, best), best, bounds)
         if warm is None or best is None:
             for y in self._route_faces(ctx, bounds):
@@ -339,10 +341,10 @@ class OuterApproximation:
         beyond.  Dives from the straight line find only the detours nearest to it; a route
         round the far side of a wall, or through a corridor, comes from here."""
         g, x = self.geom, ctx.relax.x[1:, :2]  # planned positions of steps 1..T
-        routes = distinct_routes(x[0], ctx.goal, g.lo, g.hi, g.area_lo, g.area_hi, k=ROUTES)
+        routes = distinct_routes(x[0], ctx.goal, g.polys, g.area_lo, g.area_hi, k=ROUTES)
         cum = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(x, axis=0), axis=1))]
         frac = cum[1:] / cum[-1] if cum[-1] > 1e-9 else np.linspace(0.0, 1.0, len(cum))[1:]
-        return [choose_faces(r.at(frac * r.length), ctx.b, *bounds) for r in routes]
+        return [choose_faces(r.at(frac * r.length), self.faces, ctx.b, *bounds) for r in routes]
 
     def _polish(self, ctx, inc, best, bounds, rounds=3) -> QpSolution | None:
         """Re-read the faces off a plan and re-solve while that improves on ``best``."""
@@ -350,7 +352,7 @@ class OuterApproximation:
             if inc is None or (best is not None and inc.f >= best.f * (1 - 1e-9)):
                 break
             best = inc
-            inc = self._qp(ctx, choose_faces(inc.x[2:, :2], ctx.b, *bounds), best)
+            inc = self._qp(ctx, choose_faces(inc.x[2:, :2], self.faces, ctx.b, *bounds), best)
         return best
 
     def _corner_search(self, ctx, best, bounds, tries=12) -> QpSolution:
@@ -362,8 +364,8 @@ class OuterApproximation:
         improved = True
         while improved and tried < tries and ctx.budget.left:
             improved = False
-            for r, j, i in binding_faces(best.x[2:, :2], best.y, ctx.b):
-                for alt in ((2, 3) if i < 2 else (0, 1)):
+            for r, j, i in binding_faces(best.x[2:, :2], self.faces, best.y, ctx.b):
+                for alt in self.faces.neighbours[j, i]:
                     if bounds[0][r, j, alt] != 0 or tried >= tries:
                         continue
                     y = best.y.copy()
@@ -392,9 +394,10 @@ class OuterApproximation:
         for _ in range(max_steps):
             if sol is None:
                 return None
-            nxt = extend_faces(y, sol.x[2:, :2], ctx.b, y_lo, rank)
+            nxt = extend_faces(y, sol.x[2:, :2], self.faces, ctx.b, y_lo, rank)
             if nxt is None:
-                full = choose_faces(sol.x[2:, :2], ctx.b, np.where(y == 0, 0.0, y_lo), np.where(y == 0, 0.0, y_hi))
+                full = choose_faces(sol.x[2:, :2], self.faces, ctx.b, np.where(y == 0, 0.0, y_lo),
+                                    np.where(y == 0, 0.0, y_hi))
                 return replace(sol, y=full)
             y = nxt
             sol = self._qp(ctx, y, best)
@@ -486,16 +489,17 @@ class OuterApproximation:
         """
         ub = np.inf if best is None else best.f
         relaxed = None if best is None else (ctx.relax.x[2:, :2], ctx.relax.f)
-        face_lo, face_hi = self.reach.face_bounds(ctx.x0, ctx.goal, ub, relaxed, ctx.box)
-        bounds = prune(face_lo, face_hi, ctx.b, ctx.stuck)
+        fb = self.reach.face_bounds(ctx.x0, ctx.goal, self.faces.normals, ub, relaxed, ctx.box)
+        face_lo, face_hi, valid = fb.lo, fb.hi, self.faces.valid
+        bounds = prune(face_lo, face_hi, ctx.b, valid, ctx.stuck)
         # a node's optimum below the cutoff is within the bounds, where these rows hold
-        needed = ctx.needed & ~redundant(face_lo, ctx.b)
+        needed = ctx.needed & ~redundant(face_lo, ctx.b, valid)
         cutoff = np.inf if best is None else best.f - self.gap * max(best.f, 1.0) * (1 - 1e-9)
         if bounds is None:  # no plan with f <= UB beyond the incumbent
             return best, min(cutoff, ub), True
         y_lo, y_hi = bounds
         ticket = itertools.count()  # heap tie-breaker: nodes never compare their arrays
-        heap, solved = [(ctx.relax.f, next(ticket), np.where(y_hi == 0, 0.0, 1.0), step_boxes(face_lo, face_hi))], 0
+        heap, solved = [(ctx.relax.f, next(ticket), np.where(y_hi == 0, 0.0, 1.0), fb.boxes)], 0
         open_pair = (y_lo == 0).any(axis=2)  # pairs with a face to choose (not stuck)
         step = self.reach.v_max * self.reach.dt
         limit = np.inf if self.bnb_nodes is None else self.bnb_nodes
@@ -511,15 +515,16 @@ class OuterApproximation:
             if sol is None or sol.f >= cutoff:
                 continue
             ctx.points.append(sol.s)
-            depth = np.where((y == 1).all(axis=2) & open_pair, inside(sol.x[2:, :2], ctx.b), -np.inf)
+            depth = np.where((y == 1).all(axis=2) & open_pair, inside(sol.x[2:, :2], self.faces, ctx.b), -np.inf)
             if not np.any(depth > 1e-7):  # violation-free: a better plan
-                full = choose_faces(sol.x[2:, :2], ctx.b, np.where(y == 0, 0.0, y_lo), np.where(y == 0, 0.0, y_hi))
+                full = choose_faces(sol.x[2:, :2], self.faces, ctx.b, np.where(y == 0, 0.0, y_lo),
+                                    np.where(y == 0, 0.0, y_hi))
                 best = replace(sol, y=full)
                 cutoff = best.f - self.gap * max(best.f, 1.0) * (1 - 1e-9)
                 continue
             r, j = np.unravel_index(np.argmax(depth), depth.shape)
             for i in np.flatnonzero(y_lo[r, j] == 0):
-                within = beyond(boxes, r, i, ctx.b[r, j, i], step)
+                within = beyond(boxes, r, self.faces.normals[j, i], ctx.b[r, j, i], step)
                 if within is None:
                     continue  # out of reach given the faces already on: infeasible without a QP
                 child = y.copy()
@@ -531,8 +536,10 @@ class OuterApproximation:
         """The master MILP for the current upper bound: pruned binaries, per-step big-M,
         bounded terms, tangent cuts at ``points (P, K)`` and a grid, no-good cuts."""
         c = self.c
-        face_lo, face_hi = self.reach.face_bounds(ctx.x0, ctx.goal, ub, (ctx.relax.x[2:, :2], ctx.relax.f), ctx.box)
-        bounds = prune(face_lo, face_hi, ctx.b, ctx.stuck)
+        fb = self.reach.face_bounds(ctx.x0, ctx.goal, self.faces.normals, ub, (ctx.relax.x[2:, :2], ctx.relax.f),
+                                    ctx.box)
+        face_lo, face_hi = fb.lo, fb.hi
+        bounds = prune(face_lo, face_hi, ctx.b, self.faces.valid, ctx.stuck)
         if bounds is None:
             return None
         y_lo, y_hi = bounds

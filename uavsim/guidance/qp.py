@@ -263,10 +263,11 @@ class Condensed:
     a_w : (n + m, n) ``[R^-1; G R^-1]`` (``G`` their part on u); lazy : (n + m,) its
     speed-polygon rows (on velocities only), which DAQP gets only when violated; a_lazy :
     those rows of a_w.
-    avoid_row : (Y,) the avoidance row (Eq. 8d) of each binary, flat ``y`` order; avoid_rep :
-    (Y,) its representative, a (step, face) pair: ``face_w (R, n)`` its row in ``w``,
-    ``face_io (R, E)`` its part on ``z_O``.  Avoidance rows cost no memory per obstacle:
-    one QP's rows are formed from the representatives of the faces it switches on.
+    avoid_row : (Y,) the avoidance row (Eq. 8d) of each binary, flat ``y`` order (step r,
+    obstacle j, face i); the row of face i of obstacle j at step r is ``-(a_ji . p_r)``
+    in ``w``, formed from ``pos_w (T-1, 2, n)``, the positions of steps 2..T in ``w``,
+    when a QP switches that face on: avoidance rows cost no memory per obstacle.
+    ``pos_o (T-1, 2)`` their indices in ``z_O``; normals : (n_obs, F, 2) the faces'.
     """
 
     eq: np.ndarray
@@ -287,9 +288,9 @@ class Condensed:
     lazy: np.ndarray
     a_lazy: np.ndarray
     avoid_row: np.ndarray
-    avoid_rep: np.ndarray
-    face_w: np.ndarray
-    face_io: sp.csr_matrix
+    pos_w: np.ndarray
+    pos_o: np.ndarray
+    normals: np.ndarray
 
     @classmethod
     def build(cls, c: Compiled) -> "Condensed":
@@ -332,28 +333,14 @@ class Condensed:
         g = a_r[:, u].toarray() + a_r[:, other] @ s
         a_w = np.ascontiguousarray(np.vstack([r_inv, g @ r_inv]))
         lazy = np.r_[np.zeros(len(u), bool), cls._velocity_only(a_r, c)]
-        faces = cls._faces(a, rows[avoid], c, u, other, s, r_inv)
+        avoid_row = np.zeros(c.y_cols.size, int)
+        avoid_row[c.row_y[rows[avoid]]] = rows[avoid]
+        pos_o = where[c.x_cols[2:, :2]]  # (T-1, 2)
         return cls(eq=eq, pinv=pinv, s=s, term=term, w=c.term_w, x_pos=where[c.x_cols], u_shape=c.u_cols.shape,
                    r_inv=r_inv, eye=np.eye(len(u)), bound_rows=bound_rows, bound_of=bound_of,
                    bound_coef=a.data[a.indptr[bound_rows]], rows=rows[~avoid], a_io=a_r[:, other].tocsr(),
-                   a_w=a_w, lazy=lazy, a_lazy=np.ascontiguousarray(a_w[lazy]), **faces)
-
-    @staticmethod
-    def _faces(a: sp.csr_matrix, avoid_rows: np.ndarray, c: Compiled, u, other, s, r_inv) -> dict:
-        """The avoidance rows (Eq. 8d), one per binary, kept implicitly: the rows of one step
-        and face differ only in their binary's column and their bound, so each (step, face)
-        has one representative row in ``w``.  ValueError if the program is not so."""
-        y_of = c.row_y[avoid_rows]
-        avoid_row = np.zeros(c.y_cols.size, int)
-        avoid_row[y_of] = avoid_rows
-        n = c.y_cols.shape[1] // 4
-        rep = np.arange(c.y_cols.size) // (4 * n) * 4 + np.arange(c.y_cols.size) % 4 if n else np.zeros(0, int)
-        first = np.unique(rep, return_index=True)[1]
-        a_o, a_u = a[avoid_row][:, other].tocsr(), a[avoid_row][:, u].tocsr()
-        if len(avoid_row) and ((a_o - a_o[first][rep]).nnz or (a_u - a_u[first][rep]).nnz):
-            raise ValueError("avoidance rows of one step and face differ beyond their binary")
-        face_w = (a_u[first].toarray() + a_o[first] @ s) @ r_inv if len(first) else np.zeros((0, len(u)))
-        return dict(avoid_row=avoid_row, avoid_rep=rep, face_w=np.ascontiguousarray(face_w), face_io=a_o[first])
+                   a_w=a_w, lazy=lazy, a_lazy=np.ascontiguousarray(a_w[lazy]), avoid_row=avoid_row,
+                   pos_w=np.ascontiguousarray(s[pos_o] @ r_inv), pos_o=pos_o, normals=c.normals)
 
     @staticmethod
     def _velocity_only(a_r: sp.csr_matrix, c: Compiled) -> np.ndarray:
@@ -377,7 +364,8 @@ class Condensed:
         ub = np.where(has, np.where(coef > 0, hi_b, lo_b), np.inf).min(axis=1, initial=np.inf)
         forces = np.flatnonzero(np.isfinite(lb) | np.isfinite(ub))
         off = self.a_io @ z0
-        off_face = (self.face_io @ z0)[self.avoid_rep]
+        # an avoidance row is -(a . p) <= -b, p = P_w w + p0: its offset at w = 0 is -(a . p0)
+        off_face = -np.einsum("rd,nfd->rnf", z0[self.pos_o], self.normals).reshape(-1)
         bounds = (np.clip(v, -BIG, BIG) for v in (lb[forces], ub[forces], lo[self.rows] - off, hi[self.rows] - off,
                                                   lo[self.avoid_row] - off_face, hi[self.avoid_row] - off_face))
         return _Context(lo.copy(), hi.copy(), z0, self.r_inv.T @ lin, float(self.w @ (t0 * t0)), forces, *bounds)
@@ -396,12 +384,19 @@ class Condensed:
         if not relax and len(self.avoid_row):
             keep = y.reshape(-1) == 0
             if needed is not None:
-                keep &= np.repeat(needed.reshape(-1), 4)
+                keep &= np.repeat(needed.reshape(-1), self.normals.shape[1])
             on = np.flatnonzero(keep)
         ids = np.concatenate([base, len(self.a_w) + on])
-        a = np.concatenate([self.a_w[base], self.face_w[self.avoid_rep[on]]])
+        a = np.concatenate([self.a_w[base], self.face_rows(on)])
         rlo = np.concatenate([ctx.f_lo, ctx.g_lo, ctx.a_lo[on]])
         return ids, rlo, np.concatenate([ctx.f_hi, ctx.g_hi, ctx.a_hi[on]]), a
+
+    def face_rows(self, flat: np.ndarray) -> np.ndarray:
+        """``(k, n)`` the avoidance rows in ``w`` of the binaries ``flat`` (flat ``y`` order)."""
+        n_obs, f = self.normals.shape[:2]
+        r, rest = np.divmod(flat, n_obs * f)
+        a = self.normals.reshape(-1, 2)[rest]  # (k, 2)
+        return -(a[:, :1] * self.pos_w[r, 0] + a[:, 1:] * self.pos_w[r, 1])
 
     def lazy_rows(self, ids: np.ndarray) -> np.ndarray:
         """Positions in ``ids`` of the speed-polygon rows."""
@@ -465,7 +460,7 @@ class ClarabelQP:
         drop = np.zeros(len(lo), bool)
         drop[self.avoid] = relax | (yv[self.c.row_y[self.avoid]] == 1)
         if needed is not None:
-            drop[self.avoid] |= ~np.repeat(needed.reshape(-1), 4)[self.c.row_y[self.avoid]]
+            drop[self.avoid] |= ~np.repeat(needed.reshape(-1), self.c.normals.shape[1])[self.c.row_y[self.avoid]]
         drop[self.c.sum_rows] = True
         eq = (lo == hi) & ~drop
         up = np.isfinite(hi) & ~eq & ~drop

@@ -27,9 +27,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .draw import Settings, draw_fixed_sensors, draw_target, draw_uav
-from .model import GROUND_BAND_M, free_space, ground_footprints
+from .draw import Settings, draw_fixed_sensors, draw_target, draw_uav, ground_boxes
 from .routes import GoalField
+from .space import free_space
 
 BLOCK_M, STREET_M = (70.0, 190.0), (26.0, 50.0)
 PER_BLOCK = 6  # most buildings one block is split into
@@ -232,15 +232,15 @@ def _finish(rng, boxes, kinds, goals, area_lo, area_hi, n_targets: int, s: Setti
     if len(obs_lo) and np.any(np.all((obs_lo[:, None, :2] < goals_hi + keep_clear)
                                      & (obs_hi[:, None, :2] > goals_lo - keep_clear), axis=-1)):
         return None
-    _, lo, hi = ground_footprints(obs_lo, obs_hi, s.margin, GROUND_BAND_M)
-    space = free_space(lo, hi, area_lo, area_hi, list(zip(goals_lo, goals_hi)))
+    ground = ground_boxes(obs_lo, obs_hi, s.margin)
+    space = free_space(ground, area_lo, area_hi)
     if any(not space.region_labels(a, b) for a, b in zip(goals_lo, goals_hi)):
         return None
-    fields = [GoalField(c, lo, hi, area_lo, area_hi) for c in goal_c]
+    fields = [GoalField(c, ground, area_lo, area_hi) for c in goal_c]
     starts, vels, which, lengths = [], [], [], []
     for j in range(n_targets):
         g = j % len(goal_c)
-        got = draw_target(rng, (goal_c[g], goal_s[g]), None, fields[g], (lo, hi), area_lo, area_hi, goals_lo,
+        got = draw_target(rng, (goal_c[g], goal_s[g]), None, fields[g], ground, area_lo, area_hi, goals_lo,
                       goals_hi, s)
         if got is None:
             return None

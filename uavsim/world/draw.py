@@ -19,8 +19,8 @@ from ..sensing import Sensor
 from ..targets import TARGET_KEYS, Dynamics
 from ..uav import UavConfig
 from ..uav.manoeuvres import default_sizes
-from .model import Region2D, cuboid_halfspaces, inside_polytopes
-from .routes import GoalField
+from .model import GROUND_BAND_M, Polygons, Region2D, cuboid_halfspaces, ground_footprints, inside_polytopes
+from .routes import GoalField, segment_polygon_distance
 
 REACH_FRACTION = 0.6
 TARGET_COV0 = next(spec for spec in TARGET_KEYS if spec.key == "cov0_si")
@@ -82,22 +82,26 @@ class Generated:
     manoeuvres: dict[str, float]
     seed: int | None = None
     settings: Settings = field(default_factory=Settings)
+    footprints: tuple[np.ndarray, ...] | None = None  # convex (k, 2) per obstacle: prisms (lo, hi their boxes)
+    source: str = "Generated"  # the files' first words: what made them
+    notes: tuple[str, ...] = ()  # more comment lines for both files (an attribution)
+    reach_fraction: float = REACH_FRACTION  # every goal within this x T dt v_max of free path from its targets
 
 
-def _distance_to_boxes(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """(...,) Euclidean distance from points (..., 2) to the nearest closed box (inf if none)."""
-    if len(lo) == 0:
-        return np.full(p.shape[:-1], np.inf)
-    gap = np.maximum(0.0, np.maximum(lo - p[..., None, :], p[..., None, :] - hi))
-    return np.linalg.norm(gap, axis=-1).min(axis=-1)
+def ground_boxes(obs_lo: np.ndarray, obs_hi: np.ndarray, margin: float) -> Polygons:
+    """The inflated footprints ground targets avoid (:func:`uavsim.world.ground_footprints`)
+    of cuboids ``[obs_lo, obs_hi]`` ``(K, 3)``."""
+    obs_lo, obs_hi = np.reshape(obs_lo, (-1, 3)), np.reshape(obs_hi, (-1, 3))
+    return ground_footprints(Polygons.boxes(obs_lo[:, :2], obs_hi[:, :2]), obs_lo[:, 2], obs_hi[:, 2], margin,
+                             GROUND_BAND_M)[1]
 
 
-def draw_target(rng, goal, behind, field: GoalField, ground, area_lo, area_hi, goals_lo, goals_hi, s: Settings):
+def draw_target(rng, goal, behind, field: GoalField, ground: Polygons, area_lo, area_hi, goals_lo, goals_hi,
+                s: Settings):
     """A start and starting velocity for a target of ``goal = (centre, size)``:
     outside the inflated obstacles by a margin at p0 and at p1 = p0 + v0 dt, outside
     every goal region, with 100 m <= free path to the goal's centroid <= ``s.reach``.
     Candidates are drawn 32 at a time; the first that qualifies is taken."""
-    lo, hi = ground
     for _ in range(40):
         ang = rng.uniform(-np.pi, np.pi, 32)
         if behind is not None:  # in a 60-degree cone behind the shield
@@ -107,7 +111,8 @@ def draw_target(rng, goal, behind, field: GoalField, ground, area_lo, area_hi, g
         v0 = np.where(rng.random(32)[:, None] < 0.5, 0.0, np.round(rng.uniform(-4, 4, (32, 2)), 1))
         pts = np.stack([p0, p0 + v0 * s.dynamics.dt], axis=1)  # (32, 2, 2)
         ok = np.all((pts >= area_lo[:2] + s.margin) & (pts <= area_hi[:2] - s.margin), axis=(1, 2))
-        ok &= np.all(_distance_to_boxes(pts, lo, hi) >= s.margin, axis=1)
+        if len(ground):
+            ok &= np.all(segment_polygon_distance(pts, pts, ground).min(axis=-1) >= s.margin, axis=1)
         ok &= ~np.any(np.all((pts[:, :, None] >= goals_lo) & (pts[:, :, None] <= goals_hi), axis=-1), axis=(1, 2))
         for chunk in np.array_split(np.flatnonzero(ok), max(1, int(ok.sum()) // 8)):
             length = field.lengths(p0[chunk])
@@ -118,18 +123,23 @@ def draw_target(rng, goal, behind, field: GoalField, ground, area_lo, area_hi, g
     return None
 
 
-def _inside_boxes(p: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
-    """3D point inside a closed cuboid (touching counts, as in validation)."""
-    return bool(len(lo)) and bool(inside_polytopes(p, *cuboid_halfspaces(lo, hi)).any())
+def _inside(p: np.ndarray, lo: np.ndarray, hi: np.ndarray, halfspaces=None) -> bool:
+    """3D point inside a closed obstacle (touching counts, as in validation): the cuboids
+    ``[lo, hi]``, or the polytopes ``halfspaces = (normals, offsets)``."""
+    if not len(lo):
+        return False
+    return bool(inside_polytopes(p, *(halfspaces or cuboid_halfspaces(lo, hi))).any())
 
 
 def _region2d(region: tuple) -> Region2D:
     return Region2D.box(region[1], region[2]) if region[0] == "box" else Region2D.from_vertices(region[1])
 
 
-def draw_uav(rng, obs_lo, obs_hi, area_lo, area_hi) -> dict | None:
+def draw_uav(rng, obs_lo, obs_hi, area_lo, area_hi, halfspaces=None) -> dict | None:
     """Altitude (below the tallest ground obstacle in 3 worlds of 4), operating region
-    (box or convex polygon in 2 of 5), a free start in it and manoeuvre sizes to fit it."""
+    (box or convex polygon in 2 of 5), a free start in it and manoeuvre sizes to fit it.
+    ``halfspaces``: the obstacles' (normals, offsets) when they are not the boxes
+    ``[obs_lo, obs_hi]``."""
     tallest = float(obs_hi[:, 2].max()) if len(obs_hi) else 0.0
     if tallest >= 20 and rng.random() < 0.75:
         altitude = float(np.round(rng.uniform(0.3, 0.9) * tallest))
@@ -146,7 +156,7 @@ def draw_uav(rng, obs_lo, obs_hi, area_lo, area_hi) -> dict | None:
         p = np.round(rng.uniform(r_lo, r_hi))
         start = np.r_[p, altitude]
         in_region = region is None or bool(_region2d(region).contains(p))
-        if in_region and not _inside_boxes(start, obs_lo, obs_hi):
+        if in_region and not _inside(start, obs_lo, obs_hi, halfspaces):
             return dict(altitude=altitude, uav_start=start, region=region,
                         manoeuvres=default_sizes(float(np.min(r_hi - r_lo))))
     return None
@@ -172,9 +182,9 @@ def draw_region(rng, area_lo, area_hi) -> tuple:
             return ("polygon", v)  # still strictly convex after rounding
 
 
-def draw_fixed_sensors(rng, obs_lo, obs_hi, area_lo, area_hi) -> np.ndarray:
+def draw_fixed_sensors(rng, obs_lo, obs_hi, area_lo, area_hi, halfspaces=None) -> np.ndarray:
     """Three ground sensors near the paper's layout, jittered, outside obstacles
-    (None if one finds no free place)."""
+    (None if one finds no free place); ``halfspaces`` as for :func:`draw_uav`."""
     size = area_hi[:2] - area_lo[:2]
     out = []
     for frac in ((0.15, 0.2), (0.8, 0.2), (0.5, 0.9)):
@@ -182,7 +192,7 @@ def draw_fixed_sensors(rng, obs_lo, obs_hi, area_lo, area_hi) -> np.ndarray:
             spread = 0.05 if tries < 100 else 0.5
             f = np.clip(np.array(frac) + rng.uniform(-spread, spread, 2), 0.02, 0.98)
             p = np.round(area_lo[:2] + f * size)
-            if not _inside_boxes(np.r_[p, 0.0], obs_lo, obs_hi):
+            if not _inside(np.r_[p, 0.0], obs_lo, obs_hi, halfspaces):
                 out.append(p)
                 break
         else:

@@ -43,9 +43,10 @@ from ..guidance.model import GuidanceConfig
 from ..uav import FixedSensorsConfig, ManoeuvreConfig, PlannerConfig
 from ..writer import mission_text, value_text
 from . import city
-from .draw import REACH_FRACTION, Generated, Settings, draw_fixed_sensors, draw_target, draw_uav
-from .model import GROUND_BAND_M, Region2D, free_space, ground_footprints
+from .draw import Generated, Settings, draw_fixed_sensors, draw_target, draw_uav, ground_boxes
+from .model import Region2D
 from .routes import GoalField
+from .space import free_space
 
 MAX_OBSTACLES, MAX_TARGETS = 15, 8
 
@@ -244,16 +245,16 @@ def _attempt(rng, n_obstacles: int, n_targets: int, s: Settings) -> dict | None:
     if shields is None:
         return None
     obs_lo, obs_hi = np.array(layout.lo).reshape(-1, 3), np.array(layout.hi).reshape(-1, 3)
-    _, lo, hi = ground_footprints(obs_lo, obs_hi, s.margin, GROUND_BAND_M)
-    space = free_space(lo, hi, area_lo, area_hi, list(zip(goals_lo, goals_hi)))
+    ground = ground_boxes(obs_lo, obs_hi, s.margin)
+    space = free_space(ground, area_lo, area_hi)
     if any(not space.region_labels(a, b) for a, b in zip(goals_lo, goals_hi)):
         return None
     behind = dict(shields)
-    fields = [GoalField(c, lo, hi, area_lo, area_hi) for c in goal_c]
+    fields = [GoalField(c, ground, area_lo, area_hi) for c in goal_c]
     starts, vels, which, lengths = [], [], [], []
     for j in range(n_targets):
         g = j % len(goal_c)
-        got = draw_target(rng, (goal_c[g], goal_s[g]), behind.pop(g, None), fields[g], (lo, hi), area_lo, area_hi,
+        got = draw_target(rng, (goal_c[g], goal_s[g]), behind.pop(g, None), fields[g], ground, area_lo, area_hi,
                       goals_lo, goals_hi, s)
         if got is None:
             return None
@@ -284,16 +285,21 @@ def _attempt(rng, n_obstacles: int, n_targets: int, s: Settings) -> dict | None:
 
 # --------------------------------------------------------------------------- TOML
 def world_toml(g: Generated, command: str = "") -> str:
-    """The world file: area, obstacles, goal regions."""
-    lines = [f"# Generated world{f' ({command})' if command else ''}.",
+    """The world file: area, obstacles (cuboids, or prisms over ``g.footprints``), goal regions."""
+    lines = [f"# {g.source} world{f' ({command})' if command else ''}.", *(f"# {n}" for n in g.notes),
              f"# Obstacles are inflated by {g.settings.margin:g} m for ground targets "
              "(speed_max * dt / 2 + clearance).",
              f"name = {value_text(g.name)}", "", "[area]", f"min_m = {value_text(g.area_lo)}",
              f"max_m = {value_text(g.area_hi)}"]
-    for name, lo, hi in zip(g.obstacle_names, g.obstacle_lo, g.obstacle_hi):
-        lines += ["", "[[obstacles]]", f'name = "{name}"', f"min_m = {value_text(lo)}", f"max_m = {value_text(hi)}"]
+    for k, (name, lo, hi) in enumerate(zip(g.obstacle_names, g.obstacle_lo, g.obstacle_hi)):
+        lines += ["", "[[obstacles]]", f"name = {value_text(name)}"]
+        if g.footprints is None:
+            lines += [f"min_m = {value_text(lo)}", f"max_m = {value_text(hi)}"]
+        else:
+            lines += [f"footprint_m = {value_text(g.footprints[k])}", f"z_m = {value_text(np.r_[lo[2], hi[2]])}"]
     for name, c, s in zip(g.goal_names, g.goal_centres, g.goal_sizes):
-        lines += ["", "[[goals]]", f'name = "{name}"', f"center_m = {value_text(c)}", f"size_m = {value_text(s)}"]
+        lines += ["", "[[goals]]", f"name = {value_text(name)}", f"center_m = {value_text(c)}",
+                  f"size_m = {value_text(s)}"]
     return "\n".join(lines) + "\n"
 
 
@@ -309,14 +315,15 @@ def mission_toml(g: Generated, world_ref: str, command: str = "") -> str:
     planner = PlannerConfig(manoeuvres=ManoeuvreConfig(step=uav.n_r * uav.step, **sizes),
                             fixed_sensors=FixedSensorsConfig(positions=np.column_stack([g.fixed_sensors,
                                                                                         np.zeros(len(g.fixed_sensors))])))
-    top = dict(description=f"generated: {len(g.obstacle_names)} obstacles, {len(g.target_goals)} targets",
+    top = dict(description=f"{g.source.lower()}: {len(g.obstacle_names)} obstacles, {len(g.target_goals)} targets",
                steps=s.guidance.horizon, trials=s.trials, seed=g.seed if g.seed is not None else 0, truth="planned")
     targets = [(f"T{i + 1}", np.r_[p, v], s.cov0, g.goal_names[goal])
                for i, (p, v, goal) in enumerate(zip(g.target_positions, g.target_velocities, g.target_goals))]
-    comments = (f"Generated mission{f' ({command})' if command else ''}.",
+    reach = g.reach_fraction * s.guidance.horizon * s.dynamics.dt * s.guidance.speed_max
+    comments = (f"{g.source} mission{f' ({command})' if command else ''}.", *g.notes,
                 "Every setting is the declared default (the paper mission's, [Papaioannou2023, Sec. VI-A]) "
                 "but the world's own.",
-                f"Every goal is within {REACH_FRACTION:g} x T dt v_max = {s.reach:g} m of free path from its targets.")
+                f"Every goal is within {g.reach_fraction:g} x T dt v_max = {reach:g} m of free path from its targets.")
     lengths = tuple(f"free-space shortest path to the goal's centre: {length:.0f} m" for length in g.route_lengths)
     return mission_text(world_ref, top, s.dynamics, s.sensor, uav, s.guidance, s.filter, planner, targets,
                         comments, lengths)

@@ -1,13 +1,16 @@
-"""Surveillance area, cuboid obstacles, goal regions and the UAV operating region.
+"""Surveillance area, obstacles, goal regions and the UAV operating region.
 
-Model ([Papaioannou2023] Sec. III-D): obstacle n is a cuboid given by six
+Model ([Papaioannou2023] Sec. III-D): obstacle n is a convex polytope given by
 half-spaces with outward unit normals ``a_i^n`` and offsets ``b_i^n``; a point p is
-inside it when ``a_i^n . p <= b_i^n`` for all six faces, and a collision is avoided
-when Eq. (5) holds, ``exists i: a_i^n . p > b_i^n``.  Obstacles are closed sets here:
-a point on a face is inside (touching is a collision).
+inside it when ``a_i^n . p <= b_i^n`` for all its faces, and a collision is avoided when
+Eq. (5) holds, ``exists i: a_i^n . p > b_i^n``.  The paper's obstacles are cuboids (six
+faces); here an obstacle is a vertical prism over a convex footprint (its sides and two
+caps), of which a cuboid is the case with a rectangular footprint.  Obstacles are closed
+sets: a point on a face is inside (touching is a collision).
 
-Shapes: ``normals (n_obs, 6, 3)``, ``offsets (n_obs, 6)``, points ``(..., 3)``.
-All tests broadcast over leading axes; none loops in Python over points.
+Shapes: footprints as :class:`Polygons` (padded ``(n_obs, F, 2)`` vertices), 3-D
+``normals (n_obs, F + 2, 3)``, ``offsets (n_obs, F + 2)``, points ``(..., 3)``.  All
+tests broadcast over leading axes; none loops in Python over points.
 """
 
 from __future__ import annotations
@@ -149,16 +152,203 @@ class Region2D:
 
 
 @dataclass(frozen=True, eq=False)
+class Polygons:
+    """Convex polygons in the ground plane as padded arrays (n polygons, at most F sides).
+
+    Edge i of polygon j runs from ``vertices[j, i]`` to ``vertices[j, (i + 1) % F]``;
+    the real vertices come first, counter-clockwise, and the padding repeats vertex 0, so
+    the real edges are ``i < sides[j]`` (the last one closes the polygon) and the padded
+    ones have zero length.  A padded edge copies edge 0's half-space, so tests over all
+    edges (``all_i a_i . p <= b_i``) are unchanged by the padding; ``valid`` marks the
+    real ones.
+
+    Attributes
+    ----------
+    vertices : (n, F, 2); sides : (n,) real vertex counts (>= 3).
+    normals : (n, F, 2) outward unit normals ``a_i``; offsets : (n, F) ``b_i``: the
+    closed polygon is ``{p : a_i . p <= b_i for every i}``; valid : (n, F) bool.
+    """
+
+    vertices: np.ndarray
+    sides: np.ndarray
+    normals: np.ndarray
+    offsets: np.ndarray
+    valid: np.ndarray
+
+    @classmethod
+    def from_vertices(cls, vertices: np.ndarray, sides: np.ndarray) -> "Polygons":
+        """From padded counter-clockwise vertices ``(n, F, 2)`` (see the class docstring);
+        the caller has checked convexity and orientation (:func:`convex_ccw`)."""
+        v = np.asarray(vertices, dtype=float)
+        sides = np.asarray(sides, dtype=int).reshape(-1)
+        f = v.shape[1]
+        valid = np.arange(f)[None, :] < sides[:, None]
+        v = np.where(valid[..., None], v, v[:, :1])  # the padding repeats vertex 0
+        edge = np.roll(v, -1, axis=1) - v
+        length = np.linalg.norm(edge, axis=-1, keepdims=True)
+        normals = np.stack([edge[..., 1], -edge[..., 0]], axis=-1) / np.where(length > 0, length, 1.0)
+        normals = np.where(valid[..., None], normals, normals[:, :1])
+        offsets = np.einsum("nfd,nfd->nf", normals, v)
+        offsets = np.where(valid, offsets, offsets[:, :1])
+        return cls(v, sides, normals, offsets, valid)
+
+    @classmethod
+    def from_list(cls, polygons) -> "Polygons":
+        """From a sequence of ``(k_j, 2)`` counter-clockwise convex vertex arrays."""
+        polygons = [np.asarray(p, dtype=float).reshape(-1, 2) for p in polygons]
+        f = max([len(p) for p in polygons], default=4)
+        v = np.zeros((len(polygons), f, 2))
+        for j, p in enumerate(polygons):  # once per world, over obstacles
+            v[j, : len(p)] = p
+        return cls.from_vertices(v, np.array([len(p) for p in polygons], dtype=int))
+
+    @classmethod
+    def boxes(cls, lo: np.ndarray, hi: np.ndarray) -> "Polygons":
+        """Axis-aligned rectangles ``[lo, hi]`` ``(n, 2)``; their faces in the order
+        -y, +x, +y, -x (counter-clockwise from the bottom edge)."""
+        lo, hi = np.reshape(lo, (-1, 2)).astype(float), np.reshape(hi, (-1, 2)).astype(float)
+        v = np.stack([lo, np.column_stack([hi[:, 0], lo[:, 1]]), hi, np.column_stack([lo[:, 0], hi[:, 1]])], axis=1)
+        return cls.from_vertices(v, np.full(len(lo), 4))
+
+    @classmethod
+    def concat(cls, *parts: "Polygons") -> "Polygons":
+        """The polygons of ``parts`` in order, padded to the widest."""
+        f = max(p.width for p in parts)
+
+        def pad(a, fill):
+            extra = f - a.shape[1]
+            return a if not extra else np.concatenate([a, np.repeat(fill, extra, axis=1)], axis=1)
+
+        return cls(np.concatenate([pad(p.vertices, p.vertices[:, :1]) for p in parts]),
+                   np.concatenate([p.sides for p in parts]),
+                   np.concatenate([pad(p.normals, p.normals[:, :1]) for p in parts]),
+                   np.concatenate([pad(p.offsets, p.offsets[:, :1]) for p in parts]),
+                   np.concatenate([pad(p.valid, np.zeros_like(p.valid[:, :1])) for p in parts]))
+
+    def __len__(self) -> int:
+        return len(self.sides)
+
+    @property
+    def width(self) -> int:
+        """F, the padded number of sides."""
+        return self.vertices.shape[1]
+
+    def take(self, idx) -> "Polygons":
+        """The polygons ``idx``."""
+        return Polygons(self.vertices[idx], self.sides[idx], self.normals[idx], self.offsets[idx], self.valid[idx])
+
+    @property
+    def lo(self) -> np.ndarray:
+        """(n, 2) bounding boxes' lower corners."""
+        return self.vertices.min(axis=1)
+
+    @property
+    def hi(self) -> np.ndarray:
+        return self.vertices.max(axis=1)
+
+    @property
+    def centres(self) -> np.ndarray:
+        """(n, 2) means of the real vertices."""
+        return np.einsum("nfd,nf->nd", self.vertices, self.valid) / self.sides[:, None]
+
+    @property
+    def area(self) -> np.ndarray:
+        """(n,) areas (shoelace over the real edges; padded edges have zero length)."""
+        v, w = self.vertices, np.roll(self.vertices, -1, axis=1)
+        return 0.5 * (v[..., 0] * w[..., 1] - v[..., 1] * w[..., 0]).sum(axis=1)
+
+    def neighbours(self) -> np.ndarray:
+        """(n, F, 2) the two edges meeting edge i (the previous and the next, cyclically
+        over the real edges; padded edges point at themselves)."""
+        i = np.arange(self.width)[None, :]
+        k = self.sides[:, None]
+        return np.where(self.valid[..., None], np.stack([(i - 1) % k, (i + 1) % k], axis=-1), i[..., None])
+
+    def inflated(self, margin: float) -> "Polygons":
+        """Every edge pushed out by ``margin`` along its normal (a mitred offset): vertex i,
+        where edges i - 1 and i meet, moves by ``margin (a_{i-1} + a_i) / (1 + a_{i-1} . a_i)``."""
+        prev = self.normals[np.arange(len(self))[:, None], self.neighbours()[..., 0]]
+        a = self.normals
+        shift = margin * (prev + a) / (1.0 + np.einsum("nfd,nfd->nf", prev, a))[..., None]
+        v = np.where(self.valid[..., None], self.vertices + shift, 0.0)
+        v = np.where(self.valid[..., None], v, v[:, :1])
+        return Polygons(v, self.sides, self.normals, self.offsets + margin, self.valid)
+
+    def contains(self, points: np.ndarray, tol: float = 0.0) -> np.ndarray:
+        """``(..., n)`` bool: point in the closed polygon grown by ``tol`` (``< 0``: the
+        open polygon shrunk by ``-tol``, strictly)."""
+        lhs = np.einsum("...d,nfd->...nf", np.asarray(points, dtype=float)[..., :2], self.normals)
+        if tol >= 0:
+            return np.all(lhs <= self.offsets + tol, axis=-1)
+        return np.all(lhs < self.offsets + tol, axis=-1)
+
+    def contains_pairwise(self, points: np.ndarray, tol: float = 0.0) -> np.ndarray:
+        """``(n,)`` bool: point k ``(n, 2)`` in polygon k (as :meth:`contains`)."""
+        lhs = np.einsum("nd,nfd->nf", np.asarray(points, dtype=float)[:, :2], self.normals)
+        if tol >= 0:
+            return np.all(lhs <= self.offsets + tol, axis=-1)
+        return np.all(lhs < self.offsets + tol, axis=-1)
+
+    def slack(self, points: np.ndarray) -> np.ndarray:
+        """``(..., n, F)`` signed clearance ``a_i . p - b_i`` of points ``(..., 2)`` (>= 0:
+        beyond edge i); padded edges repeat edge 0."""
+        return np.einsum("...d,nfd->...nf", np.asarray(points, dtype=float)[..., :2], self.normals) - self.offsets
+
+
+def convex_ccw(vertices: np.ndarray) -> str:
+    """Why ``(k, 2)`` vertices are not a strictly convex counter-clockwise polygon
+    (fewer than 3, repeated, clockwise, a reflex or straight corner), "" when they are."""
+    v = np.asarray(vertices, dtype=float)
+    if v.ndim != 2 or v.shape[1] != 2 or len(v) < 3:
+        return "needs at least 3 [x, y] vertices"
+    edge = np.roll(v, -1, axis=0) - v
+    if np.any(np.linalg.norm(edge, axis=1) == 0):
+        return "repeats a vertex"
+    turn = edge[:, 0] * np.roll(edge, -1, axis=0)[:, 1] - edge[:, 1] * np.roll(edge, -1, axis=0)[:, 0]
+    scale = np.linalg.norm(edge, axis=1) * np.roll(np.linalg.norm(edge, axis=1), -1)
+    if np.all(turn < 0):
+        return "is clockwise; list the vertices counter-clockwise"
+    if np.any(turn <= 1e-12 * scale):
+        k = int(np.argmin(turn / scale))
+        return f"is not strictly convex at vertex {(k + 1) % len(v)} {fmt(v[(k + 1) % len(v)])}"
+    if abs(np.arctan2(turn, np.einsum("kd,kd->k", edge, np.roll(edge, -1, axis=0))).sum() - 2 * np.pi) > 1e-6:
+        return "winds round more than once"
+    return ""
+
+
+def prism_halfspaces(footprints: Polygons, z_lo: np.ndarray, z_hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Half-space form of vertical prisms: ``(n, F + 2, 3)`` outward unit normals (the
+    footprint's sides, then +z and -z) and ``(n, F + 2)`` offsets.  A cuboid's footprint
+    from :meth:`Polygons.boxes` gives its six faces.
+
+    References
+    ----------
+    [Papaioannou2023] Sec. III-D: an obstacle is the intersection of half-spaces ``a_i . p <= b_i``.
+    """
+    n = len(footprints)
+    side = np.concatenate([footprints.normals, np.zeros((n, footprints.width, 1))], axis=-1)
+    caps = np.broadcast_to(np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]), (n, 2, 3))
+    normals = np.concatenate([side, caps], axis=1)
+    offsets = np.concatenate([footprints.offsets, np.column_stack([z_hi, -np.asarray(z_lo)])], axis=1)
+    return normals, offsets
+
+
+@dataclass(frozen=True, eq=False)
 class World:
     """Everything static: area, obstacles, goal regions.
+
+    Obstacles are vertical prisms over convex footprints (cuboids are the footprints
+    given as boxes).
 
     Attributes
     ----------
     area_lo, area_hi : (3,) surveillance area ``E`` (axis-aligned box).
-    obstacle_lo, obstacle_hi : (n_obs, 3) cuboid corners.
-    normals, offsets : (n_obs, 6, 3), (n_obs, 6) half-space form (Sec. III-D).
+    obstacle_lo, obstacle_hi : (n_obs, 3) bounding boxes (for a cuboid, its corners).
     obstacle_names : names, for messages.
     goals : goal regions by position; targets refer to them by index.
+    prisms : the convex footprints of the obstacles given as prisms, or None when every
+        obstacle is a cuboid; see :attr:`footprints`.
+    normals, offsets : (n_obs, F + 2, 3), (n_obs, F + 2) half-space form (Sec. III-D).
     """
 
     name: str
@@ -168,14 +358,34 @@ class World:
     obstacle_hi: np.ndarray
     obstacle_names: tuple[str, ...]
     goals: tuple[GoalRegion, ...]
+    prisms: Polygons | None = None
+
+    @classmethod
+    def of_prisms(cls, name, area_lo, area_hi, footprints: Polygons, z: np.ndarray, names, goals) -> "World":
+        """A world whose obstacles are prisms over ``footprints`` from ``z[:, 0]`` to ``z[:, 1]``."""
+        z = np.reshape(z, (-1, 2)).astype(float)
+        lo, hi = np.column_stack([footprints.lo, z[:, 0]]), np.column_stack([footprints.hi, z[:, 1]])
+        return cls(name, np.asarray(area_lo, float), np.asarray(area_hi, float), lo.reshape(-1, 3),
+                   hi.reshape(-1, 3), tuple(names), tuple(goals), footprints)
 
     @cached_property
+    def footprints(self) -> Polygons:
+        """The obstacles' ground footprints (convex, counter-clockwise)."""
+        if self.prisms is not None:
+            return self.prisms
+        return Polygons.boxes(self.obstacle_lo[:, :2], self.obstacle_hi[:, :2])
+
+    @cached_property
+    def _halfspaces(self) -> tuple[np.ndarray, np.ndarray]:
+        return prism_halfspaces(self.footprints, self.obstacle_lo[:, 2], self.obstacle_hi[:, 2])
+
+    @property
     def normals(self) -> np.ndarray:
-        return cuboid_halfspaces(self.obstacle_lo, self.obstacle_hi)[0]
+        return self._halfspaces[0]
 
-    @cached_property
+    @property
     def offsets(self) -> np.ndarray:
-        return cuboid_halfspaces(self.obstacle_lo, self.obstacle_hi)[1]
+        return self._halfspaces[1]
 
     @property
     def n_obstacles(self) -> int:
@@ -208,174 +418,35 @@ class World:
         hit = segments_hit_polytopes(np.asarray(p0), np.asarray(p1), self.normals, self.offsets)
         return hit.any(axis=-1)
 
+    def ground(self, margin: float, band: float | None = None) -> tuple[np.ndarray, Polygons]:
+        """``(kept, polygons)``: :func:`ground_footprints` of this world's obstacles."""
+        return ground_footprints(self.footprints, self.obstacle_lo[:, 2], self.obstacle_hi[:, 2], margin,
+                                 GROUND_BAND_M if band is None else band)
 
-# --------------------------------------------------------------------------- ground free space
+
+# --------------------------------------------------------------------------- ground obstacles
 GROUND_BAND_M = 1.0  # |z| band of ground targets; the guidance model drops obstacles that miss it
 
 
-def ground_footprints(
-    obstacle_lo: np.ndarray, obstacle_hi: np.ndarray, margin: float, band: float = GROUND_BAND_M
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The obstacles a ground target must avoid, as inflated (x, y) rectangles.
+def ground_footprints(footprints: Polygons, z_lo: np.ndarray, z_hi: np.ndarray, margin: float,
+                      band: float = GROUND_BAND_M) -> tuple[np.ndarray, Polygons]:
+    """The obstacles a ground target must avoid, as inflated convex polygons.
 
-    Every obstacle is inflated by ``margin`` per axis (the guidance model's
-    ``delta = v_max dt / 2 + clearance``); one whose inflated z-slab
-    ``[z_min - margin, z_max + margin]`` does not cover the ground band ``|z| <= band``
-    cannot meet a ground target and is dropped (as :mod:`uavsim.guidance.model` does).
+    Every obstacle's footprint is inflated by ``margin`` (each edge pushed out along its
+    normal: :meth:`Polygons.inflated`; the guidance model's ``delta = v_max dt / 2 +
+    clearance``); one whose inflated z-slab ``[z_min - margin, z_max + margin]`` does not
+    cover the ground band ``|z| <= band`` cannot meet a ground target and is dropped (as
+    :mod:`uavsim.guidance.model` does).
 
     Parameters
     ----------
-    obstacle_lo, obstacle_hi : (n, 3) cuboid corners; margin : delta (m).
+    footprints : the obstacles' footprints; z_lo, z_hi : (n,) their bottoms and tops;
+    margin : delta (m).
 
     Returns
     -------
-    kept : (k,) indices of the obstacles kept; lo, hi : (k, 2) inflated footprints.
+    kept : (k,) indices of the obstacles kept; the k inflated footprints.
     """
-    obstacle_lo, obstacle_hi = np.reshape(obstacle_lo, (-1, 3)), np.reshape(obstacle_hi, (-1, 3))
-    kept = np.flatnonzero((obstacle_lo[:, 2] - margin < -band) & (obstacle_hi[:, 2] + margin > band))
-    return kept, obstacle_lo[kept, :2] - margin, obstacle_hi[kept, :2] + margin
-
-
-@dataclass(frozen=True, eq=False)
-class FreeSpace:
-    """Exact connectivity of the plane area minus closed axis-aligned rectangles.
-
-    The rectangles' edges (clipped to the area), the area's and any marked regions'
-    edges cut the area into a compressed grid of cells.  No rectangle edge crosses a
-    cell, so the open cell lies wholly inside an open rectangle or wholly outside every
-    closed one: each cell is blocked or free, with no raster error.  Free cells are
-    joined through shared edges of positive length (4-neighbours); two cells meeting at
-    a corner are not joined, so closed rectangles touching at a corner or along an edge
-    close the passage between them (a passage of zero width).
-
-    Attributes
-    ----------
-    xs, ys : (nx + 1,), (ny + 1,) grid lines; owner : (nx, ny) index of the first
-    rectangle covering each cell, -1 if free; labels : (nx, ny) free component of each
-    cell (1, 2, ...), 0 if blocked; blocked_labels : (nx, ny) component of blocked cells;
-    lo, hi : (n, 2) the rectangles.
-    """
-
-    xs: np.ndarray
-    ys: np.ndarray
-    owner: np.ndarray
-    labels: np.ndarray
-    blocked_labels: np.ndarray
-    lo: np.ndarray
-    hi: np.ndarray
-
-    def _cell(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        p = np.asarray(points, dtype=float)
-        i = np.clip(np.searchsorted(self.xs, p[..., 0], side="right") - 1, 0, len(self.xs) - 2)
-        j = np.clip(np.searchsorted(self.ys, p[..., 1], side="right") - 1, 0, len(self.ys) - 2)
-        return i, j
-
-    def is_free(self, points: np.ndarray) -> np.ndarray:
-        """(...,) bool: point outside every closed rectangle."""
-        p = np.asarray(points, dtype=float)[..., None, :2]
-        return ~np.any(np.all((p >= self.lo) & (p <= self.hi), axis=-1), axis=-1)
-
-    def start_labels(self, point: np.ndarray) -> set[int]:
-        """Free components a path from ``point (2,)`` can enter.
-
-        A free point is in one component.  A point inside the rectangles (a start inside
-        a safety margin) may leave them: every free component bordering the blocked
-        component around it counts.
-        """
-        i, j = self._cell(point)
-        if self.is_free(point) or self.labels[i, j]:
-            return {int(self.labels[i, j])} - {0}
-        around = _dilate(self.blocked_labels == self.blocked_labels[i, j])
-        return set(np.unique(self.labels[around]).tolist()) - {0}
-
-    def region_labels(self, lo: np.ndarray, hi: np.ndarray) -> set[int]:
-        """Free components meeting the open rectangle ``(lo, hi)`` (its edges must be grid lines)."""
-        cells = self._cells_in(lo, hi)
-        return set(np.unique(self.labels[cells]).tolist()) - {0}
-
-    def covering(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """Indices of the rectangles overlapping the open rectangle ``(lo, hi)``."""
-        return np.flatnonzero(np.all((self.lo < hi) & (self.hi > lo), axis=1))
-
-    def border(self, labels: set[int]) -> np.ndarray:
-        """Indices of the rectangles whose cells touch the free components ``labels``."""
-        near = _dilate(np.isin(self.labels, list(labels))) & (self.owner >= 0)
-        return np.unique(self.owner[near])
-
-    def _cells_in(self, lo, hi) -> np.ndarray:
-        cx, cy = 0.5 * (self.xs[1:] + self.xs[:-1]), 0.5 * (self.ys[1:] + self.ys[:-1])
-        return ((cx > lo[0]) & (cx < hi[0]))[:, None] & ((cy > lo[1]) & (cy < hi[1]))[None, :]
-
-
-def _dilate(mask: np.ndarray) -> np.ndarray:
-    """The cells of ``mask`` and their 4-neighbours (shared edge of positive length)."""
-    out = mask.copy()
-    out[1:] |= mask[:-1]
-    out[:-1] |= mask[1:]
-    out[:, 1:] |= mask[:, :-1]
-    out[:, :-1] |= mask[:, 1:]
-    return out
-
-
-def free_space(
-    lo: np.ndarray, hi: np.ndarray, area_lo: np.ndarray, area_hi: np.ndarray, regions=()
-) -> FreeSpace:
-    """The compressed grid of :class:`FreeSpace` and its connected components.
-
-    Parameters
-    ----------
-    lo, hi : (n, 2) closed rectangles (e.g. from :func:`ground_footprints`).
-    area_lo, area_hi : (2,) the area (paths stay inside it).
-    regions : (lo, hi) pairs whose edges become grid lines too (goal regions), so that
-        :meth:`FreeSpace.region_labels` is exact for them.
-    """
-    lo, hi = np.reshape(lo, (-1, 2)).astype(float), np.reshape(hi, (-1, 2)).astype(float)
-    a_lo, a_hi = np.asarray(area_lo, dtype=float)[:2], np.asarray(area_hi, dtype=float)[:2]
-    marks = [np.clip(lo, a_lo, a_hi), np.clip(hi, a_lo, a_hi), a_lo[None], a_hi[None]]
-    marks += [np.clip(np.reshape(r, (1, 2)), a_lo, a_hi) for pair in regions for r in pair]
-    pts = np.vstack(marks)
-    xs, ys = np.unique(pts[:, 0]), np.unique(pts[:, 1])
-    cx, cy = 0.5 * (xs[1:] + xs[:-1]), 0.5 * (ys[1:] + ys[:-1])
-    inside = (((cx[:, None] > lo[:, 0]) & (cx[:, None] < hi[:, 0]))[:, None, :]
-              & ((cy[:, None] > lo[:, 1]) & (cy[:, None] < hi[:, 1]))[None, :, :])  # (nx, ny, n)
-    blocked = inside.any(axis=-1)
-    owner = np.where(blocked, np.argmax(inside, axis=-1) if len(lo) else 0, -1)
-    return FreeSpace(xs, ys, owner, label_grid(~blocked), label_grid(blocked), lo, hi)
-
-
-def label_grid(mask: np.ndarray) -> np.ndarray:
-    """Connected components of the True cells of a 2-D ``mask`` through shared edges
-    (4-neighbours): ``(nx, ny)`` int, 1, 2, ... numbered in the order of each component's
-    first cell in C order, 0 where False -- what ``scipy.ndimage.label(mask)`` returns
-    (tests/test_world.py checks it), in numpy only, so that reading a mission does not
-    import scipy.
-
-    Union-find over the grid's edges, vectorised: each round hooks every root to the
-    smallest root across an edge, then compresses every path; at the end each
-    component's root is its smallest flat index.
-    """
-    mask = np.asarray(mask, dtype=bool)
-    idx = np.arange(mask.size).reshape(mask.shape)
-    pairs = [(idx[:-1][mask[:-1] & mask[1:]], idx[1:][mask[:-1] & mask[1:]]),
-             (idx[:, :-1][mask[:, :-1] & mask[:, 1:]], idx[:, 1:][mask[:, :-1] & mask[:, 1:]])]
-    a = np.concatenate([p[0] for p in pairs])
-    b = np.concatenate([p[1] for p in pairs])
-    parent = idx.ravel().copy()
-    while True:
-        ra, rb = parent[a], parent[b]
-        apart = ra != rb
-        if not apart.any():
-            break
-        ra, rb = ra[apart], rb[apart]
-        np.minimum.at(parent, np.maximum(ra, rb), np.minimum(ra, rb))
-        while True:  # compress: every cell points at its root
-            up = parent[parent]
-            if np.array_equal(up, parent):
-                break
-            parent = up
-        a, b = a[apart], b[apart]
-    roots = parent[mask.ravel()]
-    first = np.unique(roots)  # ascending: the order of each component's first cell
-    out = np.zeros(mask.size, dtype=np.int32)
-    out[mask.ravel()] = np.searchsorted(first, roots) + 1
-    return out.reshape(mask.shape)
+    z_lo, z_hi = np.reshape(z_lo, -1), np.reshape(z_hi, -1)
+    kept = np.flatnonzero((z_lo - margin < -band) & (z_hi + margin > band))
+    return kept, footprints.take(kept).inflated(margin)

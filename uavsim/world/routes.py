@@ -1,21 +1,21 @@
 """Shortest collision-free ground routes among inflated obstacle footprints.
 
-A ground target must stay outside the open rectangles of :func:`uavsim.world.ground_footprints`
+A ground target must stay outside the convex polygons of :func:`uavsim.world.ground_footprints`
 (the obstacles inflated by ``delta = v_max dt / 2 + clearance``) and inside the area.  The
-shortest path in that free space is a polyline that bends only at rectangle corners, so
+shortest path in that free space is a polyline that bends only at polygon corners, so
 it is found exactly on the **visibility graph**: nodes are the start, the goal and every
-rectangle corner that lies in the area and outside the other rectangles; an edge joins
-two nodes when the open segment between them misses every open rectangle; Dijkstra on
+polygon corner that lies in the area and outside the other polygons; an edge joins
+two nodes when the open segment between them misses every open polygon; Dijkstra on
 the edge lengths gives the route.
 
-Conventions (those of :class:`uavsim.world.FreeSpace`, so both agree on what connects):
+Conventions (those of :class:`uavsim.world.space.FreeSpace`, so both agree on what connects):
 
-* a route may run along a rectangle's edge or round its corner (the rectangles are open);
-* where two closed rectangles touch (at a corner or along an edge, their interiors
+* a route may run along a polygon's edge or round its corner (the polygons are open);
+* where two closed polygons touch (at a corner or along an edge, their interiors
   apart) the passage between them has zero width and is closed: a segment through such a
   pinch is not an edge, and a corner lying on one is not a node;
-* a start (goal) inside a rectangle, e.g. inside a safety margin, may leave (enter) it
-  straight: for edges at that node the rectangles containing it are ignored.
+* a start (goal) inside a polygon, e.g. inside a safety margin, may leave (enter) it
+  straight: for edges at that node the polygons containing it are ignored.
 
 Geometric ties (a segment exactly grazing a corner) are decided with a tolerance of
 ``1e-9`` of the area's size, so a grazing segment counts as clear.
@@ -30,7 +30,8 @@ Lawler's k-best scheme, the shortest routes with one more such barrier for each 
 keeping those that pass some obstacle on a side no earlier route did.  Each route lists,
 per obstacle, the face it passes on and the turn.
 
-Shapes: rectangles ``lo, hi (n, 2)``, points ``(2,)``, routes ``(m, 2)``.
+Shapes: polygons as :class:`uavsim.world.Polygons` (``n`` of them), points ``(2,)``,
+routes ``(m, 2)``.
 """
 
 from __future__ import annotations
@@ -41,8 +42,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.sparse import csgraph, csr_matrix
 
-FACES = ("+x", "-x", "+y", "-y")  # the order of uavsim.guidance.model.FACE_NORMALS
+from .model import Polygons
+
 REL_TOL = 1e-9
+CHUNK = 2**20  # segment-polygon-face triples tested at once
 
 
 @dataclass(frozen=True)
@@ -51,9 +54,9 @@ class Passage:
 
     Attributes
     ----------
-    obstacle : index into the rectangles.
-    face : 0..3 (+x, -x, +y, -y): the face the route is outside of where it comes
-        closest to the obstacle's centre (at a corner, the first of the two in that order).
+    obstacle : index into the polygons.
+    face : the face (edge index of the polygon) the route is outside of where it comes
+        closest to the obstacle's centre (at a corner, the one it is farther beyond).
     turn : +1 the obstacle is on the route's left (the route goes round it anticlockwise),
         -1 on its right.
     point : (x, y) of the route's point closest to the obstacle's centre.
@@ -88,28 +91,11 @@ class Route:
 
     @property
     def sides(self) -> dict[int, int]:
-        """Obstacle index -> the face it is passed on (0..3 = +x, -x, +y, -y), for every obstacle."""
+        """Obstacle index -> the face it is passed on, for every obstacle."""
         return {p.obstacle: p.face for p in self.passes}
 
 
 # --------------------------------------------------------------------------- segment tests
-def _clip(p0, p1, lo, hi, closed: bool) -> np.ndarray:
-    """(..., n) bool: segment ``p0 -> p1 (..., 2)`` meets box n (both open or both closed).
-
-    Slab clipping: on axis k the segment is inside for s between ``(lo - p0) / d`` and
-    ``(hi - p0) / d``; a segment parallel to an axis is inside for all s or none.
-    """
-    p0, d = p0[..., None, :], (p1 - p0)[..., None, :]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ta, tb = (lo - p0) / d, (hi - p0) / d
-    inside = (p0 >= lo) & (p0 <= hi) if closed else (p0 > lo) & (p0 < hi)
-    par = d == 0
-    t_in = np.where(par, np.where(inside, -np.inf, np.inf), np.minimum(ta, tb)).max(axis=-1)
-    t_out = np.where(par, np.where(inside, np.inf, -np.inf), np.maximum(ta, tb)).min(axis=-1)
-    s_lo, s_hi = np.maximum(t_in, 0.0), np.minimum(t_out, 1.0)
-    return s_lo <= s_hi if closed else s_lo < s_hi
-
-
 def _cross(u, v):
     return u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0]
 
@@ -134,90 +120,145 @@ def segment_distance(a0, a1, b0, b1) -> np.ndarray:
     return np.where(crossing, 0.0, ends.min(axis=0))
 
 
-def segment_box_distance(p0, p1, lo, hi) -> np.ndarray:
-    """(..., n) distance between the closed segment ``p0 -> p1 (..., 2)`` and closed box n.
+def segment_polygon_distance(p0, p1, polys: Polygons) -> np.ndarray:
+    """(..., n) distance between the closed segment ``p0 -> p1 (..., 2)`` and closed
+    convex polygon n.  Zero when they meet; otherwise the nearest pair involves a segment
+    end or a polygon corner."""
+    p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
+    v, w = polys.vertices, np.roll(polys.vertices, -1, axis=1)  # (n, F, 2) edges v -> w
+    ends = [_point_segment_distance(q[..., None, None, :], v, w).min(axis=-1) for q in (p0, p1)]
+    ends = [np.where(polys.contains(q), 0.0, e) for q, e in zip((p0, p1), ends)]
+    corners = _point_segment_distance(v, p0[..., None, None, :], p1[..., None, None, :]).min(axis=-1)
+    dist = np.minimum(np.minimum(*ends), corners)
+    return np.where(_meets(p0, p1, polys), 0.0, dist)
 
-    Zero when they meet; otherwise the nearest pair involves a segment end or a box corner.
-    """
-    corners = np.stack([lo, np.column_stack([hi[:, 0], lo[:, 1]]), hi, np.column_stack([lo[:, 0], hi[:, 1]])], 1)
-    to_box = [np.linalg.norm(np.maximum(0.0, np.maximum(lo - q[..., None, :], q[..., None, :] - hi)), axis=-1)
-              for q in (p0, p1)]
-    to_seg = _point_segment_distance(corners, p0[..., None, None, :], p1[..., None, None, :]).min(axis=-1)
-    dist = np.minimum(np.minimum(*to_box), to_seg)
-    return np.where(_clip(p0, p1, lo, hi, closed=True), 0.0, dist)
+
+def _meets(p0, p1, polys: Polygons) -> np.ndarray:
+    """(..., n) bool: the closed segment ``p0 -> p1 (..., 2)`` meets closed polygon n, by
+    separating axes: the polygon's edge normals and the segment's normal."""
+    d = p1 - p0
+    seg_a = np.einsum("...d,nfd->...nf", p0, polys.normals)
+    seg_b = np.einsum("...d,nfd->...nf", p1, polys.normals)
+    low = np.einsum("nfd,ngd->nfg", polys.normals, polys.vertices).min(axis=-1)  # (n, F)
+    apart = (np.minimum(seg_a, seg_b) > polys.offsets) | (np.maximum(seg_a, seg_b) < low)
+    normal = np.stack([d[..., 1], -d[..., 0]], axis=-1)
+    c = np.einsum("...d,...d->...", normal, p0)[..., None]
+    proj = np.einsum("...d,nfd->...nf", normal, polys.vertices)
+    along = (c > proj.max(axis=-1)) | (c < proj.min(axis=-1))
+    return ~(apart.any(axis=-1) | along)
 
 
-def faces_along(points: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """(..., n) int: per point and rectangle, the face (0..3 = +x, -x, +y, -y) with the
-    largest outward clearance, the natural face to fix for that point in Eq. (8d)."""
-    p = np.asarray(points, dtype=float)[..., None, :2]
-    clearance = np.stack([p[..., 0] - hi[:, 0], lo[:, 0] - p[..., 0], p[..., 1] - hi[:, 1], lo[:, 1] - p[..., 1]], -1)
-    return np.argmax(clearance, axis=-1)
+def faces_along(points: np.ndarray, polys: Polygons) -> np.ndarray:
+    """(..., n) int: per point and polygon, the real face with the largest outward
+    clearance, the natural face to fix for that point in Eq. (8d)."""
+    slack = np.where(polys.valid, polys.slack(points), -np.inf)
+    return np.argmax(slack, axis=-1)
 
 
 # --------------------------------------------------------------------------- the graph
-def pinches(lo: np.ndarray, hi: np.ndarray, tol: float = 0.0, skip_last: int = 0) -> tuple[np.ndarray, np.ndarray]:
-    """Where two closed rectangles touch with their interiors apart (within ``tol``):
-    each pinch is a point or an axis-aligned segment, returned as segments ``(a, b)``.
-    Pairs among the last ``skip_last`` rectangles are left out."""
-    i, j = np.triu_indices(len(lo), 1)
-    keep = i < len(lo) - skip_last
+def pinches(polys: Polygons, tol: float = 0.0, skip_last: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """Where two closed convex polygons touch with their interiors apart (within ``tol``):
+    each pinch is a point or a segment, returned as segments ``(a (k, 2), b (k, 2))``.
+    Pairs among the last ``skip_last`` polygons are left out.
+
+    Two convex polygons touch when the largest gap between their projections on the
+    edge normals of both is zero (within tol); the contact is where their extreme
+    features on that axis overlap along the perpendicular."""
+    n = len(polys)
+    i, j = np.triu_indices(n, 1)
+    keep = (i < n - skip_last) & np.all(polys.lo[i] <= polys.hi[j] + tol, axis=1) & np.all(
+        polys.lo[j] <= polys.hi[i] + tol, axis=1)
     i, j = i[keep], j[keep]
-    a, b = np.maximum(lo[i], lo[j]), np.minimum(hi[i], hi[j])
-    overlap = b - a
-    touch = np.all(overlap >= -tol, axis=1) & (overlap.min(axis=1) <= tol)
+    if not len(i):
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    axes = np.concatenate([polys.normals[i], polys.normals[j]], axis=1)  # (P, 2F, 2)
+    pa = np.einsum("pad,pfd->paf", axes, polys.vertices[i])
+    pb = np.einsum("pad,pfd->paf", axes, polys.vertices[j])
+    gap_ab = pb.min(-1) - pa.max(-1)  # b beyond a along the axis
+    gap_ba = pa.min(-1) - pb.max(-1)
+    gap = np.maximum(gap_ab, gap_ba)
+    k = np.argmax(gap, axis=1)
+    rows = np.arange(len(i))
+    best = gap[rows, k]
+    touch = np.abs(best) <= tol
+    a_first = gap_ab[rows, k] >= gap_ba[rows, k]  # polygon i on the low side
+    axis = axes[rows, k]
+    perp = np.stack([-axis[:, 1], axis[:, 0]], axis=1)
+    low = np.where(a_first[:, None, None], polys.vertices[i], polys.vertices[j])
+    high = np.where(a_first[:, None, None], polys.vertices[j], polys.vertices[i])
+    level_lo = np.einsum("pd,pfd->pf", axis, low)
+    level_hi = np.einsum("pd,pfd->pf", axis, high)
+    t_lo = np.einsum("pd,pfd->pf", perp, low)
+    t_hi = np.einsum("pd,pfd->pf", perp, high)
+    on_lo = level_lo >= level_lo.max(1, keepdims=True) - tol  # the low polygon's feature facing the other
+    on_hi = level_hi <= level_hi.min(1, keepdims=True) + tol
+    t0 = np.maximum(np.where(on_lo, t_lo, np.inf).min(1), np.where(on_hi, t_hi, np.inf).min(1))
+    t1 = np.minimum(np.where(on_lo, t_lo, -np.inf).max(1), np.where(on_hi, t_hi, -np.inf).max(1))
+    touch &= t0 <= t1 + tol
+    c = level_lo.max(1)
+    a = c[:, None] * axis + t0[:, None] * perp
+    b = c[:, None] * axis + np.maximum(t0, t1)[:, None] * perp
     return a[touch], b[touch]
 
 
 @dataclass(frozen=True, eq=False)
 class _Scene:
-    """The rectangles, then four open rectangles framing the area (its outside)."""
+    """The polygons, then four open rectangles framing the area (its outside)."""
 
-    lo: np.ndarray  # (n + 4, 2)
-    hi: np.ndarray
-    n: int  # real rectangles (the first n)
+    polys: Polygons  # n + 4
+    n: int  # real polygons (the first n)
     area_lo: np.ndarray
     area_hi: np.ndarray
     tol: float
     walls: tuple[np.ndarray, np.ndarray]  # closed segments nothing may touch: pinches (+ barriers)
 
 
-def _scene(lo, hi, area_lo, area_hi) -> _Scene:
-    lo, hi = np.reshape(lo, (-1, 2)).astype(float), np.reshape(hi, (-1, 2)).astype(float)
+def _scene(polys: Polygons, area_lo, area_hi) -> _Scene:
     a, b = np.asarray(area_lo, dtype=float)[:2], np.asarray(area_hi, dtype=float)[:2]
     size = float(np.max(b - a))
     tol, big = REL_TOL * size, 2.0 * size + np.abs(np.r_[a, b]).max()
-    # left, right (full height), bottom, top (area width): a rectangle touching the area's
-    # boundary closes the passage there, like two touching rectangles
+    # left, right (full height), bottom, top (area width): a polygon touching the area's
+    # boundary closes the passage there, like two touching polygons
     frame_lo = np.array([[a[0] - big, a[1] - big], [b[0], a[1] - big], [a[0], a[1] - big], [a[0], b[1]]])
     frame_hi = np.array([[a[0], b[1] + big], [b[0] + big, b[1] + big], [b[0], a[1]], [b[0], b[1] + big]])
-    all_lo, all_hi = np.vstack([lo, frame_lo]), np.vstack([hi, frame_hi])
-    return _Scene(all_lo, all_hi, len(lo), a, b, tol, pinches(all_lo, all_hi, tol, skip_last=4))
+    everything = Polygons.concat(polys, Polygons.boxes(frame_lo, frame_hi)) if len(polys) else \
+        Polygons.boxes(frame_lo, frame_hi)
+    return _Scene(everything, len(polys), a, b, tol, pinches(everything, tol, skip_last=4))
 
 
-def _nodes(scene: _Scene, terminals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Nodes ``(N, 2)``: the terminals (start, goal), then the usable rectangle corners; and
-    each node's tangent sign ``(N,)``: +1 for a corner of exactly one rectangle that a
-    shortest path can only leave with ``d_x d_y >= 0`` (its top-left and bottom-right
-    corners), -1 for ``d_x d_y <= 0`` (bottom-left, top-right), 0 for no restriction
-    (terminals; corners shared by rectangles; every node when a terminal is inside a
-    rectangle: a path from inside ignores that rectangle, and the corners it would bend at
-    may be hidden in it)."""
-    lo, hi, tol, n = scene.lo, scene.hi, scene.tol, scene.n
-    corners = np.stack([lo[:n], np.column_stack([hi[:n, 0], lo[:n, 1]]), hi[:n],
-                        np.column_stack([lo[:n, 0], hi[:n, 1]])], 1)  # BL, BR, TR, TL
-    c, first, count = np.unique(corners.reshape(-1, 2), axis=0, return_index=True, return_counts=True)
-    sign = np.where(count == 1, np.array([-1, 1, -1, 1])[first % 4], 0) * (not _inside_any(scene, terminals).any())
-    ok = ~np.any(np.all((c[:, None] > lo + tol) & (c[:, None] < hi - tol), axis=-1), axis=1)
-    return np.vstack([terminals, c[ok]]), np.r_[np.zeros(len(terminals), int), sign[ok]]
+def _nodes(scene: _Scene, terminals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Nodes ``(N, 2)``: the terminals (start, goal), then the usable polygon corners; each
+    node's two neighbouring corners as vectors ``(N, 2, 2)`` and whether a shortest path
+    there must be tangent ``(N,)``: a corner of exactly one polygon, which a shortest path
+    only leaves along a line with both neighbours on one side (:func:`_tangent`).  No
+    restriction at terminals, at corners shared by polygons, and at any node when a
+    terminal is inside a polygon (a path from inside ignores that polygon, and the
+    corners it would bend at may be hidden in it)."""
+    polys, tol, n = scene.polys, scene.tol, scene.n
+    real = polys.take(np.arange(n))
+    v = real.vertices
+    prev, nxt = np.roll(v, 1, axis=1), np.roll(v, -1, axis=1)
+    k = real.sides[:, None]
+    f = np.arange(real.width)[None, :]
+    prev = np.where((f == 0)[..., None], v[np.arange(n)[:, None], k - 1], prev)  # wrap over the real corners
+    nxt = np.where((f == k - 1)[..., None], v[:, :1], nxt)
+    ok = real.valid.reshape(-1)
+    corners, nb = v.reshape(-1, 2)[ok], np.stack([prev, nxt], axis=2).reshape(-1, 2, 2)[ok]
+    c, first, inverse, count = np.unique(corners, axis=0, return_index=True, return_inverse=True, return_counts=True)
+    restricted = (count == 1) & (not _inside_any(scene, terminals).any())
+    vectors = nb[first] - c[:, None, :]
+    free = ~polys.contains(c, tol=-tol).any(axis=1)
+    nodes = np.vstack([terminals, c[free]])
+    vec = np.concatenate([np.zeros((len(terminals), 2, 2)), vectors[free]])
+    return nodes, vec, np.r_[np.zeros(len(terminals), bool), restricted[free]]
 
 
-def _tangent(d: np.ndarray, sign: np.ndarray) -> np.ndarray:
-    """(P,) bool: direction ``d (P, 2)`` leaves a node of tangent ``sign (P,)`` along or
-    outside its rectangle (a path that turns into the rectangle's quadrant there is never
-    shortest: its bend could be cut).  See :func:`_nodes`."""
-    prod = d[:, 0] * d[:, 1]
-    return (sign == 0) | (sign * prod >= 0)
+def _tangent(d: np.ndarray, vectors: np.ndarray, restricted: np.ndarray) -> np.ndarray:
+    """(P,) bool: direction ``d (P, 2)`` leaves a node along a line that has both its
+    neighbouring corners ``vectors (P, 2, 2)`` on one side (a path that turns into the
+    polygon there is never shortest: its bend could be cut).  See :func:`_nodes`."""
+    side = _cross(d[:, None, :], vectors)
+    return ~restricted | (side[:, 0] * side[:, 1] >= 0)
 
 
 def _touches(scene: _Scene, p0, p1, walls) -> np.ndarray:
@@ -229,52 +270,59 @@ def _touches(scene: _Scene, p0, p1, walls) -> np.ndarray:
 
 
 def _inside_any(scene: _Scene, points: np.ndarray) -> np.ndarray:
-    """(P,) bool: point inside an open rectangle (a terminal in a margin): a segment from
-    it ignores that rectangle, so the corner it goes to need not be a tangent one."""
-    return np.any(np.all((points[:, None] > scene.lo + scene.tol) & (points[:, None] < scene.hi - scene.tol), axis=-1),
-                  axis=1)
-
-
-def _crosses(a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """(P, n) bool: the open segment ``a -> b (P, 2)`` meets the open box n.
-
-    Separating axes: the segment's bounding box against the box's (x and y axes), and the
-    segment's normal, on which the box spans its centre's value +- its support
-    ``|d_y| h_x + |d_x| h_y``.  A segment through a corner or along an edge does not meet it."""
-    d = b - a
-    c, h = 0.5 * (lo + hi), 0.5 * (hi - lo)
-    mn, mx = np.minimum(a, b), np.maximum(a, b)
-    hit = (mx[:, None, 0] > lo[:, 0]) & (mn[:, None, 0] < hi[:, 0]) & (mx[:, None, 1] > lo[:, 1])
-    hit &= mn[:, None, 1] < hi[:, 1]
-    cross = d[:, None, 0] * (c[:, 1] - a[:, None, 1]) - d[:, None, 1] * (c[:, 0] - a[:, None, 0])
-    return hit & (np.abs(cross) < np.abs(d[:, None, 1]) * h[:, 0] + np.abs(d[:, None, 0]) * h[:, 1])
+    """(P,) bool: point inside an open polygon (a terminal in a margin): a segment from
+    it ignores that polygon, so the corner it goes to need not be a tangent one."""
+    return scene.polys.contains(points, tol=-scene.tol).any(axis=-1)
 
 
 def _sees(scene: _Scene, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(P,) bool: the open segment ``a -> b (P, 2)`` misses every open rectangle and
-    touches no pinch.  A rectangle containing an end is ignored (only a start or goal
-    can be inside one: corners inside are not nodes), so a terminal may leave it.
-    Computed in chunks of about a million segment-rectangle pairs."""
-    lo, hi = scene.lo + scene.tol, scene.hi - scene.tol
+    """(P,) bool: the open segment ``a -> b (P, 2)`` misses every open polygon and
+    touches no pinch.  A polygon containing an end is ignored (only a start or goal can
+    be inside one: corners inside are not nodes), so a terminal may leave it.  Only the
+    polygons whose bounding box meets the segment's are tested, in chunks."""
+    polys, tol = scene.polys, scene.tol
     ok = np.ones(len(a), dtype=bool)
-    step = max(1, 2**20 // len(lo))
+    lo, hi = polys.lo + tol, polys.hi - tol
+    step = max(1, CHUNK // (len(polys) * polys.width))
     for k in range(0, len(a), step):
         sa, sb = a[k:k + step], b[k:k + step]
-        hit = _crosses(sa, sb, lo, hi)  # (P, n + 4)
-        for end in (sa, sb):
-            hit &= ~np.all((end[:, None] > lo) & (end[:, None] < hi), axis=-1)
-        ok[k:k + step] = ~hit.any(axis=1)
+        mn, mx = np.minimum(sa, sb), np.maximum(sa, sb)
+        near = np.all((mx[:, None] > lo) & (mn[:, None] < hi), axis=-1)  # (P, n)
+        p, j = np.nonzero(near)
+        hit = _meets_pairs(sa[p], sb[p], polys, j, tol)
+        hit &= ~polys.take(j).contains_pairwise(sa[p], -tol) & ~polys.take(j).contains_pairwise(sb[p], -tol)
+        bad = np.zeros(len(sa), dtype=bool)
+        bad[p[hit]] = True
+        ok[k:k + step] = ~bad
     ok[ok] = ~_touches(scene, a[ok], b[ok], scene.walls)
     return ok
+
+
+def _meets_pairs(p0, p1, polys: Polygons, j: np.ndarray, tol: float) -> np.ndarray:
+    """(P,) bool: open segment P meets open polygon ``j[P]`` shrunk by tol (:func:`_meets`)."""
+    if not len(j):
+        return np.zeros(0, dtype=bool)
+    normals, offsets, vertices = polys.normals[j], polys.offsets[j], polys.vertices[j]  # (P, F, ...)
+    seg_a = np.einsum("pd,pfd->pf", p0, normals)
+    seg_b = np.einsum("pd,pfd->pf", p1, normals)
+    low = np.einsum("pfd,pgd->pfg", normals, vertices).min(axis=-1)
+    apart = (np.minimum(seg_a, seg_b) >= offsets - tol) | (np.maximum(seg_a, seg_b) <= low + tol)
+    d = p1 - p0
+    normal = np.stack([d[:, 1], -d[:, 0]], axis=1)
+    scale = np.linalg.norm(normal, axis=1)
+    c = np.einsum("pd,pd->p", normal, p0)
+    proj = np.einsum("pd,pfd->pf", normal, vertices)
+    along = (c >= proj.max(axis=1) - tol * scale) | (c <= proj.min(axis=1) + tol * scale)
+    return ~(apart.any(axis=1) | along)
 
 
 def _graph(scene: _Scene, terminals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Nodes ``(N, 2)`` and the visible pairs ``(P, 2)`` with their lengths ``(P,)``, less
     the pairs no shortest path uses (not tangent at a corner, :func:`_tangent`)."""
-    nodes, sign = _nodes(scene, terminals)
+    nodes, vectors, restricted = _nodes(scene, terminals)
     i, j = np.triu_indices(len(nodes), 1)
     d = nodes[j] - nodes[i]
-    keep = _tangent(d, sign[i]) & _tangent(d, sign[j])
+    keep = _tangent(d, vectors[i], restricted[i]) & _tangent(d, vectors[j], restricted[j])
     i, j = i[keep], j[keep]
     ok = _sees(scene, nodes[i], nodes[j])
     pairs = np.column_stack([i[ok], j[ok]])
@@ -310,11 +358,11 @@ def _route(scene: _Scene, graph, barriers=()) -> Route | None:
 
 def _passes(scene: _Scene, points: np.ndarray) -> tuple[Passage, ...]:
     """How the route passes every obstacle, in order along the route."""
-    lo, hi = scene.lo[:scene.n], scene.hi[:scene.n]
-    if len(lo) == 0 or len(points) < 2:
+    polys = scene.polys.take(np.arange(scene.n))
+    if len(polys) == 0 or len(points) < 2:
         return ()
     a, b = points[:-1, None], points[1:, None]  # (S, 1, 2)
-    c = 0.5 * (lo + hi)  # (n, 2)
+    c = polys.centres  # (n, 2)
     ab = b - a
     t = np.clip(np.einsum("snk,snk->sn", c - a, ab) / np.einsum("snk,snk->sn", ab, ab), 0.0, 1.0)
     q = a + t[..., None] * ab  # (S, n, 2): each segment's point closest to each centre
@@ -322,8 +370,8 @@ def _passes(scene: _Scene, points: np.ndarray) -> tuple[Passage, ...]:
     j = np.arange(len(c))
     q, ab = q[s, j], ab[s, 0]
     turn = np.where(_cross(ab, c - q) > 0, 1, -1)
-    face = faces_along(q, lo, hi)[j, j]
-    touching = segment_box_distance(points[:-1], points[1:], lo, hi).min(axis=0) <= 1e3 * scene.tol
+    face = faces_along(q, polys)[j, j]
+    touching = segment_polygon_distance(points[:-1], points[1:], polys).min(axis=0) <= 1e3 * scene.tol
     order = np.lexsort((j, s + t[s, j]))
     return tuple(Passage(int(k), int(face[k]), int(turn[k]), (float(q[k, 0]), float(q[k, 1])), bool(touching[k]))
                  for k in order)
@@ -333,8 +381,7 @@ def _barrier(scene: _Scene, passage: Passage) -> tuple[np.ndarray, np.ndarray]:
     """The ray from the obstacle's centre through the route's point nearest to it, up to
     the area boundary: a route touching or crossing it passes the obstacle the same way
     as the route it came from."""
-    j = passage.obstacle
-    c = 0.5 * (scene.lo[j] + scene.hi[j])
+    c = scene.polys.centres[passage.obstacle]
     d = np.array(passage.point) - c
     d /= np.linalg.norm(d)
     bound = np.where(d > 0, scene.area_hi, scene.area_lo)
@@ -348,10 +395,10 @@ def _xy(p) -> np.ndarray:
     return np.asarray(p, dtype=float)[:2]
 
 
-def shortest_route(start, goal, lo, hi, area_lo, area_hi) -> Route | None:
+def shortest_route(start, goal, polys: Polygons, area_lo, area_hi) -> Route | None:
     """The shortest path from ``start (2,)`` to ``goal (2,)`` in the area outside the open
-    rectangles ``lo, hi (n, 2)``; None when no path exists."""
-    scene = _scene(lo, hi, area_lo, area_hi)
+    polygons; None when no path exists."""
+    scene = _scene(polys, area_lo, area_hi)
     return _route(scene, _graph(scene, np.array([_xy(start), _xy(goal)])))
 
 
@@ -360,20 +407,20 @@ class GoalField:
     (2,)`` over the corners, then a start goes straight to the visible node ``v`` that
     minimises ``|s - v| + dist(v, goal)`` (exact: a shortest path's first bend is a node)."""
 
-    def __init__(self, goal, lo, hi, area_lo, area_hi):
-        self.scene = _scene(lo, hi, area_lo, area_hi)
+    def __init__(self, goal, polys: Polygons, area_lo, area_hi):
+        self.scene = _scene(polys, area_lo, area_hi)
         self.nodes, pairs, length = _graph(self.scene, _xy(goal)[None])
-        self.sign = _nodes(self.scene, _xy(goal)[None])[1]
+        _, self.vectors, self.restricted = _nodes(self.scene, _xy(goal)[None])
         self.dist, _ = _dijkstra(self.nodes, pairs, length, 0)
 
     def lengths(self, starts: np.ndarray) -> np.ndarray:
         """``(m,)`` lengths from ``starts (m, 2)`` (inf where no path exists).  A start
-        inside a rectangle (in a margin) gets a graph of its own (:func:`_nodes`)."""
+        inside a polygon (in a margin) gets a graph of its own (:func:`_nodes`)."""
         starts = np.reshape(np.asarray(starts, dtype=float), (-1, 2))
         m, n = len(starts), len(self.nodes)
         a, b = np.repeat(starts, n, axis=0), np.tile(self.nodes, (m, 1))
         total = np.linalg.norm(b - a, axis=1) + np.tile(self.dist, m)
-        try_ = np.isfinite(total) & _tangent(b - a, np.tile(self.sign, m))
+        try_ = np.isfinite(total) & _tangent(b - a, np.tile(self.vectors, (m, 1, 1)), np.tile(self.restricted, m))
         try_[try_] = _sees(self.scene, a[try_], b[try_])
         out = np.where(try_, total, np.inf).reshape(m, n).min(axis=1)
         for k in np.flatnonzero(_inside_any(self.scene, starts)):
@@ -382,12 +429,12 @@ class GoalField:
         return out
 
 
-def path_lengths(starts, goal, lo, hi, area_lo, area_hi) -> np.ndarray:
+def path_lengths(starts, goal, polys: Polygons, area_lo, area_hi) -> np.ndarray:
     """``(m,)`` shortest free-path lengths from ``starts (m, 2)`` to ``goal (2,)``; see :class:`GoalField`."""
-    return GoalField(goal, lo, hi, area_lo, area_hi).lengths(starts)
+    return GoalField(goal, polys, area_lo, area_hi).lengths(starts)
 
 
-def distinct_routes(start, goal, lo, hi, area_lo, area_hi, k: int = 3, max_solves: int = 200) -> list[Route]:
+def distinct_routes(start, goal, polys: Polygons, area_lo, area_hi, k: int = 3, max_solves: int = 200) -> list[Route]:
     """Up to ``k`` short routes, shortest first, each passing at least one obstacle on
     the other side (``turn``) from every route before it.
 
@@ -397,7 +444,7 @@ def distinct_routes(start, goal, lo, hi, area_lo, area_hi, k: int = 3, max_solve
     Dijkstra on the same visibility graph with the barred edges removed).  The search is a
     heuristic: the k routes are distinct, not proven to be the k shortest classes.
     """
-    scene = _scene(lo, hi, area_lo, area_hi)
+    scene = _scene(polys, area_lo, area_hi)
     graph = _graph(scene, np.array([_xy(start), _xy(goal)]))
     first = _route(scene, graph)
     if first is None:
