@@ -90,7 +90,7 @@ def test_names_resolve_and_real_paths_win(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("arg, message", [
-    ("nosuch", "nosuch: (file): file not found, nor a shipped mission (paper, paper_clutter8, "),
+    ("nosuch", "nosuch: (file): file not found, nor a shipped mission (helsinki, paper, paper_clutter8, "),
     ("missions/paper.toml", "missions/paper.toml: (file): file not found; the shipped paper.toml is run by its "
                             "name, paper"),
     ("paper.toml", "paper.toml: (file): file not found; the shipped paper.toml is run by its name, paper"),

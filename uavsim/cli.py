@@ -21,6 +21,7 @@ import sys
 import tempfile
 import textwrap
 import threading
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -473,6 +474,67 @@ def cmd_world_generate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_world_import(args: argparse.Namespace) -> int:
+    from .world import osm
+    from .world.draw import Settings
+    from .world.generate import mission_toml, world_toml
+
+    _seed(args.seed)
+    bbox = _numbers(args.bbox, 4, "--bbox", "LON0,LAT0,LON1,LAT1")
+    reach = _numbers(args.reach, 2, "--reach", "LO,HI")
+    if not 0 < reach[0] < reach[1]:
+        raise UsageError(f"--reach must be 0 < LO < HI, got {args.reach}")
+    if not 1 <= args.targets <= 32:
+        raise UsageError(f"--targets must be between 1 and 32, got {args.targets}")
+    out = Path(args.out) if args.out else Path("imported") / f"{Path(args.file).name.split('.')[0]}.toml"
+    world = out.with_name(f"{out.stem}.world.toml")
+    for path in (out, world):
+        _output_file(path, "--out")
+        if path.exists() and not args.force:
+            raise UsageError(f"--out: {path} exists; pass --force to overwrite it")
+    rng = np.random.default_rng(args.seed)
+    try:
+        with warnings.catch_warnings(record=True) as warned:
+            warnings.simplefilter("always")
+            town = osm.read_osm(args.file, bbox, default_height=args.default_height_m)
+            pieces = osm.obstacles(town, Settings().margin)
+            gen = osm.town_world(town, pieces, args.targets, rng, name=out.stem, reach=reach,
+                                 altitude=args.altitude_m)
+    except osm.OsmError as exc:
+        raise UsageError(f"{args.file}: {exc}") from None
+    cost = osm.measure(town, pieces, gen.settings.margin)
+    _output_folder(out.parent)
+    command = (f"uavsim world import {args.file} --bbox {args.bbox} --targets {args.targets} --seed {args.seed}"
+               f" --reach {args.reach} --altitude-m {args.altitude_m:g} --default-height-m {args.default_height_m:g}")
+    gen = replace(gen, seed=args.seed)
+    write_atomic(world, world_toml(gen, command))
+    write_atomic(out, mission_toml(gen, world.name, command))
+    for w in warned:
+        print(f"warning: {w.message}", file=sys.stderr)
+    heights = town.stats["heights"]
+    print(f"wrote {out} and {world}: {cost['buildings']} buildings as {cost['pieces']} convex prisms "
+          f"({cost['faces']} faces), {len(gen.goal_names)} goal regions, {len(gen.target_goals)} targets, "
+          f"area {_size(gen.area_hi - gen.area_lo)} m\n"
+          f"heights: {heights['height']} tagged, {heights['levels']} from levels, {heights['default']} "
+          f"at the default {args.default_height_m:g} m\n"
+          f"free ground lost to the prisms: {cost['mitre_lost_pct']:.2f}% of the map's "
+          f"({cost['mitre_lost']:.0f} of {cost['mitre_free']:.0f} m^2, buildings inflated by "
+          f"{gen.settings.margin:g} m); street points closed: {cost['mitre_closed_pts']} of "
+          f"{cost['mitre_open_pts']}, streets split: {cost['mitre_splits']}\n{osm.ATTRIBUTION}")
+    return 0
+
+
+def _numbers(text: str, n: int, flag: str, form: str) -> list[float]:
+    """``n`` comma-separated finite numbers, or a UsageError naming the flag."""
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) != n or not all(np.isfinite(values)):
+        raise UsageError(f"{flag} must be {form} ({n} numbers), got {text!r}")
+    return values
+
+
 def _size(v) -> str:
     return " x ".join(f"{x:g}" for x in v[:2])
 
@@ -629,6 +691,27 @@ def build_parser() -> argparse.ArgumentParser:
                    "as <name>.world.toml")
     p.add_argument("--force", action="store_true", help="overwrite existing files")
     p.set_defaults(func=cmd_world_generate)
+    p = world.add_parser(
+        "import", help="a world + mission from an OpenStreetMap extract",
+        description="Read the buildings, open places and streets of an OpenStreetMap extract inside a box (pyosmium); "
+                    "write a world whose obstacles are convex prisms covering every building, goal regions in open "
+                    "places, and a mission with targets started on streets. Prints what the prisms cost against "
+                    "the true footprints. Map data (c) OpenStreetMap contributors, ODbL: the files keep the "
+                    "attribution.")
+    p.add_argument("file", help="an OpenStreetMap extract: .osm.pbf, .osm or .osm.bz2")
+    p.add_argument("--bbox", required=True, metavar="LON0,LAT0,LON1,LAT1", help="the box, degrees (WGS84)")
+    p.add_argument("--targets", type=int, default=8, metavar="N", help="number of targets, 1 to 32 (default 8)")
+    p.add_argument("--seed", type=int, default=0, help="draws the targets' starts and goals (default 0)")
+    p.add_argument("--reach", default="0.3,0.9", metavar="LO,HI",
+                   help="each target's goal is LO..HI of the horizon's straight reach T dt v_max away by free path "
+                        "(default 0.3,0.9)")
+    p.add_argument("--altitude-m", type=float, default=40.0, help="the UAV's altitude (default 40 m, the paper's)")
+    p.add_argument("--default-height-m", type=float, default=18.0,
+                   help="height of a building with neither height nor building:levels tagged (default 18 m)")
+    p.add_argument("--out", metavar="FILE", help="the mission file (default imported/<file name>.toml); the world "
+                   "goes beside it as <name>.world.toml")
+    p.add_argument("--force", action="store_true", help="overwrite existing files")
+    p.set_defaults(func=cmd_world_import)
     return parser
 
 
