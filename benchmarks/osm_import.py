@@ -1,6 +1,6 @@
 """What the OSM import's convex prisms cost against the true footprints, beside each building's bounding box.
 
-    python benchmarks/osm_import.py [--crops small,issue,medium,helsinki,large] [--figure docs/osm-helsinki.png]
+    python benchmarks/osm_import.py [--crops small,station,medium,helsinki,large] [--figure docs/osm-helsinki.png]
         [--json docs/data/osm-import.json]
 
 Crops of the shipped extract of central Helsinki (worlds/osm, ODbL) of about 50, 86, 150,
@@ -27,7 +27,7 @@ from uavsim.world import osm
 DATA = ROOT / "worlds" / "osm" / "helsinki-centre.osm.pbf"
 CROPS = {  # name: (lon0, lat0, lon1, lat1)
     "small": (24.94169, 60.17012, 24.94799, 60.17327),  # 350 x 351 m round the railway station
-    "issue": (24.93736, 60.16914, 24.94734, 60.17414),  # 554 x 557 m, the crop the issue describes
+    "station": (24.93736, 60.16914, 24.94734, 60.17414),  # 554 x 557 m round the railway station, 86 buildings
     "medium": (24.94097, 60.16510, 24.95087, 60.17048),  # 550 x 599 m, Esplanadi
     "helsinki": (24.9380, 60.1690, 24.9510, 60.1760),  # 722 x 780 m, the shipped mission (missions/helsinki.toml)
     "large": (24.93520, 60.16474, 24.95322, 60.17730),  # 1000 x 1399 m, nearly the whole extract

@@ -168,7 +168,7 @@ class Dense:
         self.h = 2.0 * s_t.T @ (k.w[:, None] * s_t)
         self.n = len(k.r_inv)
         r = np.linalg.inv(k.r_inv)  # every general row on u: the kept ones, then one per binary (rows_for's ids)
-        self.g = np.vstack([k.a_w[self.n:] @ r, k.face_w[k.avoid_rep] @ r])
+        self.g = np.vstack([k.a_w[self.n:] @ r, k.face_rows(np.arange(len(k.avoid_row))) @ r])
         self.m = len(self.g)
 
     def data(self, lo, hi, y, relax):

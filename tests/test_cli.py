@@ -137,8 +137,8 @@ def test_resume_on_broken_folders(capsys, tmp_path):
     (["run", M, *QUICK, "--seed", "-1"],
      f"{M}: seed: must be in [0, 2^63 - 1], got -1 (an override, not the file's value)"),
     (["tma", "reproduce", "huang2021-scenario1", "--seed", "-1"], "--seed must be in [0, 2^63 - 1], got -1"),
-    (["plan", M, "--time-limit", "0"], "--time-limit must be in [0.01, 86400] nominal seconds, got 0.0"),
-    (["plan", M, "--time-limit", "nan"], "--time-limit must be in [0.01, 86400] nominal seconds, got nan"),
+    (["plan", M, "--time-limit", "0"], "--time-limit must be in [0.01, 86400] reference seconds, got 0.0"),
+    (["plan", M, "--time-limit", "nan"], "--time-limit must be in [0.01, 86400] reference seconds, got nan"),
     (["run", M, *QUICK, "--scheduler", "nowhere"], "--scheduler nowhere: cannot connect"),
     (["sweep", M, "--set", "sensor.clutter_rate=" + "[" * 5000, *QUICK], "--set: value nested too deeply"),
 ])

@@ -245,6 +245,7 @@ def test_a_planned_truth_starts_from_the_next_draw_that_has_a_plan(tmp_path):
     sim.reset(trial_seeds(m.seed, 2)[1])
     info = sim.step()
     notes = [e for e in info.events if "(truth)" in e]
-    assert notes == ["T2 (truth): 1 draw(s) from the prior had no guidance plan (infeasible: no plan meets the "
-                     "speed, force and area limits even without obstacles); the start is the next clear draw"]
+    assert notes == ["T2 (truth): 1 draw(s) from the prior had no guidance plan that avoids every obstacle "
+                     "(infeasible: no plan meets the speed, force and area limits even without obstacles); the start "
+                     "is the next clear draw"]
     assert np.all(info.truth[:, :2] >= m.world.area_lo[:2]) and np.all(info.truth[:, :2] <= m.world.area_hi[:2])

@@ -65,13 +65,22 @@ class ReplayedGuidance:
     def __init__(self, guidance):
         self.inner, self.calls = guidance, 0
 
+    def __getattr__(self, name):  # the geometry and the rest: the real guidance's
+        return getattr(self.inner, name)
+
     def replan(self, mean, cov, goal, previous, step, shift=1):
-        return self.plan()
+        return self._next()
 
     def sensitivity(self, start, goal, plan, step=0):  # the truth's, for the PCRLB only
         return np.zeros((len(plan.means), 4, 4)), True
 
     def plan(self, *args, **kw):
+        if "warm" not in kw:  # the truth's plan at the prior's mean, only its warm start: none here
+            return Plan(status="error", objective=np.inf, lower_bound=np.nan, gap=np.inf, iterations=0,
+                        solve_seconds=0.0, controls=None, means=None, covs=None)
+        return self._next()
+
+    def _next(self) -> Plan:
         k, self.calls = self.calls, self.calls + 1
         t = REF["loop/plan_lengths"][k]
         return Plan(status="optimal", objective=0.0, lower_bound=0.0, gap=0.0, iterations=1, solve_seconds=0.0,

@@ -98,7 +98,7 @@ def test_files_that_are_not_regular_files_are_refused(tmp_path, capsys):
     (["run", str(PAPER), "--trials", "1", "--scheduler", ""], "--scheduler needs an address"),
     (["run", str(PAPER), "--trials", "1", "--record", "/proc/uavsim.rrd"], "--record /proc/uavsim.rrd: cannot write"),
     (["tma", "reproduce", "huang2021-scenario1", "--seed", BIG], "--seed must be in [0, 2^63 - 1]"),
-    (["plan", str(PAPER), "--time-limit", "1e-300"], "--time-limit must be in [0.01, 86400] nominal seconds"),
+    (["plan", str(PAPER), "--time-limit", "1e-300"], "--time-limit must be in [0.01, 86400] reference seconds"),
 ])
 def test_bad_command_lines(capsys, argv, fragment):
     refused(capsys, argv, fragment)

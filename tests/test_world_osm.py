@@ -98,7 +98,7 @@ def test_no_buildings_broken_and_missing_file(tmp_path, small):
 def test_prisms_are_convex_cover_every_building_and_cost_little(small):
     """Every piece strictly convex and counter-clockwise (what a world file accepts),
     every building inside a piece that spans its base and top, at most 5% of the free
-    ground of the true footprints lost and no street split (the issue's targets)."""
+    ground of the true footprints lost and no street split."""
     town, pieces = small
     names = [p.name for p in pieces]
     assert len(set(names)) == len(names) and all(n.isascii() for n in names)

@@ -1,7 +1,8 @@
 """uavsim: passive bearings-only monitoring of ground targets from one UAV.
 
-Pipeline, in data-flow order: ``world/`` (the world and how worlds are made) -> ``targets`` (dynamics), ``guidance/`` (P1)
-and ``truth`` -> ``sensing`` -> ``belief/`` (per-target filters) -> ``uav/`` (policies)
+Pipeline, in data-flow order: ``world/`` (the world and how worlds are made) ->
+``targets`` (dynamics), ``guidance/`` (P1) and ``truth`` -> ``sensing`` -> ``belief/``
+(per-target filters) -> ``uav/`` (policies)
 -> ``sim`` (one trial) -> ``recording``, ``metrics``, ``campaign`` -> ``cli``, ``env``.
 ``config`` is the only module that reads files; ``estimators/`` is the paper library,
 independent of the simulator.

@@ -68,7 +68,8 @@ class TrialResult:
     ``(steps, M)``, NEES of the position and of the state ``(steps, M)``, stage seconds
     ``(steps, len(STAGES))``, guidance statuses, events, and for the PCRLB the true states
     ``(steps, M, 6)``, sensor positions ``(steps, S, 3)`` and the planned truth's
-    sensitivity to its start ``(steps, M, 4, 4)`` (``(0,)`` for a stochastic truth)."""
+    sensitivity to its start ``(steps, M, 4, 4)`` (``(0,)`` for a stochastic truth);
+    ``collisions``: truth steps that touched an obstacle (:attr:`uavsim.truth.Truth.collisions`)."""
 
     index: int
     err2: np.ndarray
@@ -81,6 +82,7 @@ class TrialResult:
     truth: np.ndarray
     observers: np.ndarray
     sensitivity: np.ndarray
+    collisions: int = 0
 
 
 class trial_seeds:  # noqa: N801 (a lazy list)
@@ -204,7 +206,7 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
             events += [f"step {info.t}: {e}" for e in info.events if not e.startswith("resampled")]
     return TrialResult(index, np.array(err2), np.array(trace), np.array(nees_pos), np.array(nees_state),
                        np.array(secs), statuses, tuple(events), np.stack(truth), np.stack(observers),
-                       np.array(sens))
+                       np.array(sens), sim.truth.collisions)
 
 
 _GUIDANCE: dict[str, Guidance] = {}  # per worker process: build each mission's models once
@@ -303,7 +305,7 @@ def _fingerprinted(mission: Mission, planner: str) -> Mission:
 
 def save_trial(folder: Path, r: TrialResult) -> None:
     buf = io.BytesIO()
-    meta = np.array(json.dumps({"statuses": r.statuses, "events": list(r.events)}))
+    meta = np.array(json.dumps({"statuses": r.statuses, "events": list(r.events), "collisions": r.collisions}))
     np.savez(buf, index=r.index, err2=r.err2, trace=r.trace, nees_pos=r.nees_pos, nees_state=r.nees_state,
              seconds=r.seconds, truth=r.truth, observers=r.observers,
              sensitivity=r.sensitivity, meta=meta)
@@ -326,7 +328,7 @@ def load_trials(folder: Path, indices: range) -> dict[int, TrialResult]:
                     meta = json.loads(str(z["meta"]))
                     out[k] = TrialResult(int(z["index"]), z["err2"], z["trace"], z["nees_pos"], z["nees_state"],
                                          z["seconds"], meta["statuses"], tuple(meta["events"]), z["truth"],
-                                         z["observers"], z["sensitivity"])
+                                         z["observers"], z["sensitivity"], meta.get("collisions", 0))
             except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
                 raise CampaignError(f"{path}: not a readable trial file ({exc}); delete it to run "
                                     "that trial again") from None
@@ -613,6 +615,7 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
                  "state": metrics.consistency(np.stack([r.nees_state for r in results]), len(metrics.STATE))},
         "guidance_status": dict(sorted(statuses.items())),
         "events": sum(len(r.events) for r in results),
+        "truth_collisions": sum(r.collisions for r in results),
         "timing": {k: float(np.median(secs[:, i])) for i, k in enumerate(STAGES)},
         "wall_seconds": wall,
     }

@@ -149,7 +149,7 @@ def cmd_plan(args: argparse.Namespace) -> int:
     mission = load_mission(args.mission)
     limit = dict(specs(GuidanceConfig))["time_limit"]
     if args.time_limit is not None and (not math.isfinite(args.time_limit) or limit.out_of_range(args.time_limit)):
-        raise UsageError(f"--time-limit must be in {limit.range_text()} nominal seconds, got {args.time_limit}")
+        raise UsageError(f"--time-limit must be in {limit.range_text()} reference seconds, got {args.time_limit}")
     if args.solver == "scip" and importlib.util.find_spec("pyscipopt") is None:
         raise UsageError("--solver scip needs pyscipopt: pip install 'uavsim[scip]'")
     cfg = mission.guidance
@@ -312,6 +312,7 @@ def _print_summary(s: dict) -> None:
     t = s["timing"]
     print(f"  median s/step: guidance {t['guidance']:.3f}, filter {t['filter']:.3f}, planner {t['planner']:.4f}, "
           f"truth {t['truth']:.3f}, total {t['total']:.3f}; guidance plans {s['guidance_status']}")
+    print(f"  truth steps touching an obstacle: {s.get('truth_collisions', 0)} (every step, from the start)")
 
 
 def _nees_note(trials: int, targets: int, level: float) -> str:

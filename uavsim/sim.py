@@ -135,6 +135,7 @@ class Simulation:
         sec["planner"] = time.perf_counter() - t3
         t4 = time.perf_counter()
         self.truth.move(self.t, self._truth_controls)
+        events += self.truth.drain_notes()
         sec["truth"] += time.perf_counter() - t4
         t5 = time.perf_counter()
         observers, sensor = self.policy.observers, self.policy.sensor

@@ -1,15 +1,23 @@
 """The true targets of one trial ([Papaioannou2023] Sec. III-A, VI-B).
 
-Each trial draws every target's true initial state from its prior ``N(mu_0, Sigma_0)``
-(restricted to starts outside every obstacle that stay out during their first step
-``p + v dt``, which no force can change, and for a planned truth to starts with a
-guidance plan), then moves it by the mission's truth mode:
+Each trial draws every target's true initial state from its prior ``N(mu_0, Sigma_0)``,
+restricted to starts from which the target can stay out of every building: the start and
+its first step ``p + v dt`` (which no force can change) outside every obstacle inflated
+as the guidance inflates it, and a guidance plan from it that keeps every avoidance
+constraint from step 2 on (a start from which the target cannot brake or turn in time
+has none); it then moves by the mission's truth mode:
 
 * ``planned`` (the paper, Sec. VI-B): along the noise-free guidance plan computed from
   that drawn start at t = 1 (re-planned noise-free from its end if the mission outlasts
-  the horizon);
+  the horizon).  The plan is warm-started from the plan at the prior's mean (the same in
+  every trial, so made once per process), and so spends ``replan_budget_s``;
 * ``stochastic``: re-planned from the true state every step, moving by Eq. (1) with
-  process noise.
+  process noise drawn again (at most :data:`NOISE_DRAWS` times) where a draw would carry
+  the target into a building: a truncated Gaussian, so that the truth never enters one.
+
+Every step of the truth is checked against the obstacles themselves (the segment from
+its last position); a step that touches one is counted (:attr:`Truth.collisions`) and
+logged as an event, whatever made it.
 
 A planned truth is a deterministic function of its drawn start, ``x_t = g_t(x_0)``.  Its
 sensitivity ``G_t = d x_t / d x_0`` on ``[x, y, vx, vy]`` (:attr:`Truth.sensitivity`) is
@@ -30,7 +38,8 @@ from .guidance import Guidance, Plan
 from .mission import Mission
 
 START_DRAWS = 1000  # prior draws per target to find a free-space true start
-PLAN_TRIES = 20  # clear draws tried per target until one has a guidance plan (planned truth)
+PLAN_TRIES = 20  # clear draws tried per target until one has a guidance plan that avoids every obstacle
+NOISE_DRAWS = 8  # process-noise draws per step of a stochastic truth, the first clear of the buildings kept
 
 
 class Truth:
@@ -47,6 +56,7 @@ class Truth:
         self.plans: list[Plan | None] = [None] * len(mission.targets)
         self.sensitivity: np.ndarray | None = None  # (M, 4, 4) d x_t / d x_0 on HORIZONTAL (planned)
         self.notes: list[str] = []
+        self.collisions = 0  # truth steps that touched an obstacle
         if mission.truth == "planned":
             self.sensitivity = np.broadcast_to(np.eye(4), (len(mission.targets), 4, 4)).copy()
             self.plans = self._noise_free_plans(0)
@@ -60,14 +70,16 @@ class Truth:
         covs = np.array([t.cov0 for t in self.m.targets])
         z = rng.standard_normal((START_DRAWS, *means.shape))  # (D, M, 6)
         draws = means + np.einsum("mij,dmj->dmi", np.linalg.cholesky(covs), z)
-        world = self.m.world
+        world, ground = self.m.world, self.guidance.geom.polys
         p0 = world.on_ground(draws[..., :3])
         p1 = world.on_ground(p0 + self.m.dynamics.dt * draws[..., 3:])
         free = ~world.in_obstacle(p0) & ~world.segment_blocked(p0, p1)  # (D, M)
+        if len(ground):  # the start and its first step outside the inflated obstacles
+            free &= ~ground.contains(p0[..., :2]).any(axis=-1) & ~ground.contains(p1[..., :2]).any(axis=-1)
         if not free.any(axis=0).all():
             j = int(np.argmin(free.any(axis=0)))
             raise SettingError(f"targets[{j}].cov0_si",
-                               f"none of {START_DRAWS} draws from the prior is outside the obstacles "
+                               f"none of {START_DRAWS} draws from the prior is outside the obstacles' margins "
                                "and clear of them after one step")
         return [draws[free[:, j], j] for j in range(len(means))]
 
@@ -89,29 +101,38 @@ class Truth:
 
     def _first_plan(self, j: int, step: int) -> Plan:
         """Target j's noise-free plan from its state; at step 0 from the first of its clear
-        prior draws that has one (at most ``PLAN_TRIES``: a draw near the area's edge,
-        heading out faster than the force limit can turn, has none), noted as an event."""
+        prior draws that has one keeping every avoidance constraint (at most
+        ``PLAN_TRIES``: a draw near the area's edge, heading out faster than the force limit
+        can turn, or towards a wall it cannot stop short of, has none), noted as an event."""
+        zero, goal = np.zeros((6, 6)), self.m.goals[j]
         tries = self._candidates[j][:PLAN_TRIES] if step == 0 else self.state[j:j + 1]
+        warm = self.guidance.plan(self.m.targets[j].mean0, zero, goal) if step == 0 else None
+        warm = warm if warm is not None and warm.ok else None
         failed: list[Plan] = []
         for x in tries:
-            plan = self.guidance.plan(x, np.zeros((6, 6)), self.m.goals[j], step=step)
-            if plan.ok:
+            plan = self.guidance.plan(x, zero, goal, warm=warm, step=step, shift=0)
+            if plan.ok and (plan.guarded_from == 2 or step > 0):
                 if failed:
+                    why = f"{failed[0].status}: {failed[0].message}" if not failed[0].ok else failed[0].message
                     self.notes.append(f"{self.m.targets[j].name} (truth): {len(failed)} draw(s) from the prior had "
-                                      f"no guidance plan ({failed[0].status}: {failed[0].message}); the start is "
-                                      "the next clear draw")
+                                      f"no guidance plan that avoids every obstacle ({why}); the start is the next "
+                                      "clear draw")
                 self.state[j] = x
                 return plan
             failed.append(plan)
         first = failed[0]
         raise SettingError(f"targets[{j}].position_m",
-                           f"no guidance plan for the truth from {len(tries)} start(s) "
+                           f"no guidance plan that avoids every obstacle for the truth from {len(tries)} start(s) "
                            f"({first.status}: {first.message})")
+
+    def drain_notes(self) -> list[str]:
+        """The events noted since the last call."""
+        notes, self.notes = self.notes, []
+        return notes
 
     def controls(self, t: int, events: list[str]) -> np.ndarray:
         """(M, 3) the forces the true targets apply at step t (module docstring)."""
-        events += self.notes
-        self.notes = []
+        events += self.drain_notes()
         if self.m.truth == "planned":
             k = t % len(self.plans[0].controls)
             if t and k == 0:  # the mission outlasts the horizon: plan on from the end
@@ -125,10 +146,31 @@ class Truth:
         return np.array([p.controls[0] for p in self.plans])
 
     def move(self, t: int, controls: np.ndarray) -> None:
-        """Eq. (1): exactly along the plan (``planned``), or with process noise."""
+        """Eq. (1): exactly along the plan (``planned``), or with process noise kept clear
+        of the buildings (module docstring); every step checked against the obstacles."""
+        before = self.state
         if self.m.truth == "planned":
             k = t % len(self.plans[0].controls)
             self.state = np.array([plan.means[k] for plan in self.plans])
             self.sensitivity = np.array([g[k] for g in self._segment]) @ self._segment_start
         else:
-            self.state = self.m.dynamics.step(self.state, controls, rng=self.rng)
+            self.state = self.m.dynamics.step(before, controls, rng=self.rng)
+            for _ in range(NOISE_DRAWS - 1):  # draw again only for the targets whose step enters a building
+                again = self._blocked(before, self.state)
+                if not again.any():
+                    break
+                redrawn = self.m.dynamics.step(before[again], controls[again], rng=self.rng)
+                self.state = self.state.copy()
+                self.state[again] = redrawn
+        hit = self._blocked(before, self.state)
+        for j in np.flatnonzero(hit):
+            self.collisions += 1
+            self.notes.append(f"{self.m.targets[j].name} (truth): step {t + 1} touches an obstacle between "
+                              f"({before[j, 0]:.1f}, {before[j, 1]:.1f}) and ({self.state[j, 0]:.1f}, "
+                              f"{self.state[j, 1]:.1f}) m")
+
+    def _blocked(self, before: np.ndarray, after: np.ndarray) -> np.ndarray:
+        """(..., M) bool: the straight step from ``before (M, 6)`` to ``after (..., M, 6)``
+        touches an obstacle (on the ground: z raised to the floor, see :meth:`World.on_ground`)."""
+        world = self.m.world
+        return world.segment_blocked(world.on_ground(before[..., :3]), world.on_ground(after[..., :3]))

@@ -7,13 +7,15 @@ the cvxpy model (:mod:`.model`) with SCIP for cross-checks.  ``Guidance.plan`` r
 a :class:`Plan`.
 
 **Budgets.**  A first plan (no previous plan to start from) may spend
-``time_limit_s``; a re-plan ``replan_budget_s``.  Both are counted in fixed-face QPs, at
-the nominal cost :data:`.oa.QP_SECONDS` plus :data:`.oa.QP_SECONDS_PER_NNZ` per non-zero
-of the program less the obstacles the plan cannot touch (measured on this project's
-reference machine, 2 cores), so a plan depends on its inputs only: campaigns stay
-bit-identical on any machine and for any number of workers.
+``time_limit_s``; a re-plan ``replan_budget_s``.  Both are seconds of the reference
+machine (this project's 2-core AMD EPYC): counted in fixed-face QPs at what one costs there,
+:data:`.oa.QP_SECONDS` plus :data:`.oa.QP_SECONDS_PER_NNZ` per non-zero of the program
+less the obstacles the plan cannot touch, the branch-and-bound's work round it included
+(``benchmarks/budget.py`` measures the ratio of wall to reference seconds), so a plan
+depends on its inputs only: campaigns stay bit-identical on any machine and for any
+number of workers, and on the reference machine a budget of 10 s takes about 10 s.
 A wall-clock cap of :data:`WALL_CAP` times the budget stops a solve that runs far slower
-than nominal; the plan then says so.  Within its budget a solve returns the best
+than that; the plan then says so.  Within its budget a solve returns the best
 collision-free plan it has, with its certified gap (status "feasible" when above the
 tolerance); one that has no plan yet goes on looking until the cap.
 """
@@ -44,7 +46,7 @@ SOLVERS = {  # name -> what it is (`uavsim plan --solver`'s help)
     "scip": "SCIP through cvxpy (pip install 'uavsim[scip]'), for cross-checks",
 }
 DEFAULT_SOLVER = "highs"
-WALL_CAP = 4.0  # a solve stops at this many times its nominal budget, plus one second
+WALL_CAP = 4.0  # a solve stops at this many times its budget in wall seconds, plus one second
 SENSITIVITY_STEP = np.array([1e-3, 1e-3, 1e-4, 1e-4])  # m, m, m/s, m/s (Guidance.sensitivity)
 
 
@@ -59,7 +61,8 @@ class Plan:
         "fallback" (the caller reused the previous plan shifted by one step; see
         :meth:`shifted`).
     objective : Eq. (7) in m^2; lower_bound : certified; gap : ``(obj - lb) / max(obj, 1)``.
-    iterations : master MILPs solved; solve_seconds : wall time.
+    iterations : master MILPs solved; solve_seconds : wall time; work_seconds : the
+    budget's reference seconds spent (:mod:`uavsim.guidance`, Budgets).
     controls : (T, 3) N, ``u_{t+tau|t}``; means : (T, 6) ``mu_{t+tau+1|t}`` (Eq. 6, 8b);
     covs : (T, 6, 6) ``Sigma_{t+tau+1|t}`` (Eq. 6).
     faces : (T-1, n, F) active-face choice (warm start); terms : (K,) squared terms.
@@ -70,6 +73,9 @@ class Plan:
     unreachable : a hard terminal was asked for (``GuidanceConfig.terminal``) and no plan
         ending in the goal region was found (proved impossible, or none within the
         budget; the message says which); this plan is P1's with the soft terminal term.
+    guarded_from : the first planned step from which every avoidance constraint holds: 2
+        (step 1 is fixed by the start), later where the start lies in an obstacle's margin
+        and cannot leave it sooner (the message names the obstacles).
     """
 
     status: str
@@ -87,12 +93,14 @@ class Plan:
     message: str = ""
     moved_start: bool = False
     unreachable: bool = False
+    work_seconds: float = 0.0
+    guarded_from: int = 2
 
     @property
     def eventful(self) -> bool:
-        """A fallback, a plan from a moved start, or a soft plan where a hard terminal was
-        asked for: the closed loop logs its message."""
-        return self.status == "fallback" or self.moved_start or self.unreachable
+        """A fallback, a plan from a moved start, a soft plan where a hard terminal was
+        asked for, or avoidance dropped at early steps: the closed loop logs its message."""
+        return self.status == "fallback" or self.moved_start or self.unreachable or self.guarded_from > 2
 
     @property
     def ok(self) -> bool:
@@ -150,7 +158,7 @@ class Guidance:
 
     @staticmethod
     def budget(seconds: float, master: bool) -> Budget:
-        """A :class:`Budget` of ``seconds`` nominal QP time (counted in QPs by the solver)."""
+        """A :class:`Budget` of ``seconds`` of the reference machine (counted in QPs by the solver)."""
         from .oa import Budget
 
         return Budget(seconds, time.perf_counter() + WALL_CAP * seconds + 1.0, master)
@@ -205,25 +213,42 @@ class Guidance:
         noise-free plan from ``start (6,)``, by central differences of ``SENSITIVITY_STEP``.
 
         P1's optimum is piecewise affine in the start (a QP for each face choice and active
-        set), so the difference is exact unless the active set changes within the step;
-        ``smooth`` is False when the forward and backward differences disagree (then G is
-        their mean).  Used for the accuracy floor of a planned truth (:mod:`uavsim.bounds.pcrlb`).
+        set), so near ``start`` it is the QP with ``plan.faces`` fixed: each difference
+        re-solves that one QP (:meth:`.oa.OuterApproximation.with_faces`), not P1, and is
+        exact unless the active set changes within the step; ``smooth`` is False when the
+        forward and backward differences disagree (then G is their mean).  Where that QP
+        has no plan from a moved start (or the solver is SCIP), P1 is solved anew.  Used for
+        the accuracy floor of a planned truth (:mod:`uavsim.bounds.pcrlb`).
 
         Raises
         ------
         RuntimeError when no plan exists from a start moved by the step.
         """
-        zero, cols, smooth = np.zeros((6, 6)), [], True
+        cols, smooth = [], True
         for i, d in zip(HORIZONTAL, SENSITIVITY_STEP):
             e = np.zeros(6)
             e[i] = d
-            ends = [self.plan(start + s * e, zero, goal, step=step) for s in (1, -1)]
-            if not all(p.ok for p in ends):
+            ends = [self._branch_means(start + s * e, goal, plan, step) for s in (1, -1)]
+            if any(m is None for m in ends):
                 raise RuntimeError(f"no plan from the start moved by {d:g} along state component {i}")
-            fwd, bwd = (s * (p.means[:, HORIZONTAL] - plan.means[:, HORIZONTAL]) / d for s, p in zip((1, -1), ends))
+            fwd, bwd = (s * (m[:, HORIZONTAL] - plan.means[:, HORIZONTAL]) / d for s, m in zip((1, -1), ends))
             smooth &= bool(np.allclose(fwd, bwd, rtol=1e-4, atol=1e-4))
             cols.append((fwd + bwd) / 2)
         return np.stack(cols, axis=-1), smooth
+
+    def _branch_means(self, start: np.ndarray, goal: np.ndarray, plan: Plan, step: int) -> np.ndarray | None:
+        """``(T, 6)`` the means of P1's plan from ``start`` on ``plan``'s face choice (see
+        :meth:`sensitivity`), None if there is none."""
+        zero = np.zeros((6, 6))
+        if self.solver != "scip" and plan.faces is not None:
+            _, oa = self._model(len(plan.controls))
+            box = self._region(goal) if self.cfg.terminal == "hard" and not plan.unreachable else None
+            sol = oa.with_faces(start[[0, 1, 3, 4]], goal[:2], plan.faces, box)
+            if sol is not None:
+                controls = np.column_stack([sol.u * KN, np.zeros(len(sol.u))])
+                return self.dynamics.predict_moments(start, zero, controls)[0]
+        again = self.plan(start, zero, goal, step=step)
+        return again.means if again.ok else None
 
     def replan(self, mean: np.ndarray, cov: np.ndarray, goal: np.ndarray, previous: Plan | None,
                step: int, shift: int = 1) -> Plan:
@@ -267,6 +292,7 @@ class Guidance:
             return soft
         why = "goal region unreachable within the horizon" if plan.status == "infeasible" else "no plan found"
         return replace(soft, unreachable=True, solve_seconds=time.perf_counter() - t0,
+                       work_seconds=plan.work_seconds + soft.work_seconds,
                        message="; ".join(filter(None, [f"{why} ({plan.message}): soft terminal", soft.message])))
 
     def _region(self, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -283,6 +309,7 @@ class Guidance:
         if np.any(np.abs(z_means[:, 2]) > GROUND_BAND_M):
             why = f"target is not on the ground (|z| > {GROUND_BAND_M} m within the horizon)"
             return self._failed("error", t0, why)
+        work, guarded = 0.0, 2
         if self.solver == "scip":
             status, obj, lb, u, faces, terms, it, msg = self._solve_scip(oa, x0, goal[:2], box)
         else:
@@ -291,13 +318,14 @@ class Guidance:
             sol = oa.solve(x0, goal[:2], self.budget(seconds, master=warm is None), shifted, box)
             status, obj, lb, it, msg = sol.status, sol.objective, sol.lower_bound, sol.iterations, sol.message
             u, faces, terms = (None, None, None) if sol.plan is None else (sol.plan.u, sol.plan.y, sol.plan.s)
+            work, guarded = sol.work, sol.guarded_from
         if u is None:
-            return self._failed(status, t0, msg, lb)
+            return replace(self._failed(status, t0, msg, lb), work_seconds=work)
         controls = np.column_stack([u * KN, np.zeros(len(u))])
         means, covs = self.dynamics.predict_moments(mean, cov, controls)
         gap = max(obj - lb, 0.0) / max(obj, 1.0)
         return Plan(status, obj, lb, gap, it, time.perf_counter() - t0, controls, means, covs, faces, terms,
-                    self._in_margin(means[0]), msg)
+                    self._in_margin(means[0]), msg, work_seconds=work, guarded_from=guarded)
 
     def _within_limits(self, mean: np.ndarray) -> tuple[np.ndarray, str]:
         """``mean (6,)`` with its ground position clipped to the area and its ground speed

@@ -171,19 +171,22 @@ def beyond(boxes: tuple[np.ndarray, np.ndarray], r: int, normal: np.ndarray, b: 
 
 
 def _clip_box(lo: np.ndarray, hi: np.ndarray, a: np.ndarray, b: float):
-    """Bounding box ``(lo, hi)`` of ``[lo, hi] ∩ {a . p >= b}``, None if empty (within 1e-7)."""
-    corners = np.array([[lo[0], lo[1]], [hi[0], lo[1]], [hi[0], hi[1]], [lo[0], hi[1]]])
-    val = corners @ a - b
-    if val.max() < -1e-7:
+    """Bounding box ``(lo, hi)`` of ``[lo, hi] ∩ {a . p >= b}``, None if empty (within 1e-7).
+
+    Per axis k: a point with coordinate ``p_k`` has a partner in the box beyond the face
+    when ``a_k p_k + max(a_l lo_l, a_l hi_l) >= b`` (l the other axis), a bound on ``p_k``
+    from below (``a_k > 0``) or above (``a_k < 0``)."""
+    (x0, y0), (x1, y1), (ax, ay) = lo, hi, a
+    mx, my = max(ax * x0, ax * x1), max(ay * y0, ay * y1)
+    if mx + my < b - 1e-7:
         return None
-    nxt, vnext = np.roll(corners, -1, axis=0), np.roll(val, -1)
-    cross = (val < 0) != (vnext < 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(cross, val / (val - vnext), 0.0)
-    pts = np.vstack([corners[val >= 0], (corners + t[:, None] * (nxt - corners))[cross]])
-    if not len(pts):  # the box only touches the face's line (within tolerance)
-        pts = corners[np.argmax(val)][None]
-    return pts.min(axis=0), pts.max(axis=0)
+    out_lo, out_hi = [x0, y0], [x1, y1]
+    for k, (ak, rest) in enumerate(((ax, my), (ay, mx))):
+        if ak > 0:
+            out_lo[k] = min(max(out_lo[k], (b - rest) / ak), out_hi[k])
+        elif ak < 0:
+            out_hi[k] = max(min(out_hi[k], (b - rest) / ak), out_lo[k])
+    return np.array(out_lo), np.array(out_hi)
 
 
 def redundant(face_lo: np.ndarray, b: np.ndarray, valid: np.ndarray) -> np.ndarray:

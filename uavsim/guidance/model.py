@@ -72,7 +72,7 @@ class GuidanceConfig:
     horizon : T; rho : control-increment weight (N^-2 m^2); force_max : |u_x|, |u_y| (N);
     speed_max : ground speed (m/s); speed_sides : sides of the inscribed speed polygon;
     clearance : extra obstacle margin (m); gap : certified relative gap;
-    time_limit : nominal budget (s) of a first plan; replan_budget : of a re-plan (see
+    time_limit : budget (reference s) of a first plan; replan_budget : of a re-plan (see
     :mod:`uavsim.guidance`); horizon_mode : "receding" or "shrinking" (see
     :meth:`uavsim.guidance.Guidance.horizon_at`); terminal : "soft" (P1 as published: the
     end is pulled towards the goal's centroid by Eq. (7) only) or "hard" (the plan must
@@ -89,13 +89,14 @@ class GuidanceConfig:
     clearance: float = setting("clearance_m", 1.0, unit="m", lo=0, hi=1000,
                                doc="obstacle margin on top of speed_max_mps x dt_s / 2")
     gap: float = setting("gap", 1e-4, lo=1e-9, hi=0.5, doc="certified relative optimality gap of a plan")
-    time_limit: float = setting("time_limit_s", 10.0, unit="nominal s", lo=0.01, hi=86400,
-                                doc="budget of a first plan (counted in QPs, machine-independent)")
+    time_limit: float = setting("time_limit_s", 10.0, unit="reference s", lo=0.01, hi=86400,
+                                doc="budget of a first plan: seconds of the reference machine, counted in QPs "
+                                    "(the same plan on any machine)")
     horizon_mode: str = setting("horizon_mode", "shrinking", choices=("receding", "shrinking"),
                                 doc="receding: always T steps ahead; shrinking: to the first plan's end, "
                                     "then T more")
-    replan_budget: float = setting("replan_budget_s", 1.0, unit="nominal s", lo=0.001, hi=3600,
-                                   doc="budget of a re-plan from the previous plan")
+    replan_budget: float = setting("replan_budget_s", 1.0, unit="reference s", lo=0.001, hi=3600,
+                                   doc="budget of a re-plan from the previous plan (reference s, as time_limit_s)")
     terminal: str = setting("terminal", "soft", choices=("soft", "hard"),
                             doc="soft: P1 as published; hard: the plan must also end inside the goal region")
 

@@ -88,15 +88,19 @@ NO_SAFE_ARRIVAL = "no collision-free plan ends in the goal region within the hor
 ROUTES = 3  # topologically distinct shortest routes that seed the face choices of a first plan
 
 
-# nominal cost of one fixed-face QP: QP_SECONDS + QP_SECONDS_PER_NNZ per non-zero of the program
-# without the obstacles a plan cannot touch (Clarabel's cost on the reference machine; DAQP's
-# QPs cost about 0.3 ms + 0.05 us per non-zero, `benchmarks/qp_solvers.py calibrate`)
-QP_SECONDS, QP_SECONDS_PER_NNZ = 2e-3, 0.4e-6
+MAX_OPEN_NODES = 500_000  # a tree this wide stops with its bound (about 1 GB of nodes), as the budget does
+
+# the cost of one fixed-face QP on the reference machine (2-core AMD EPYC), the branch-and-bound's
+# work around it included: QP_SECONDS + QP_SECONDS_PER_NNZ per non-zero of the program without the
+# obstacles a plan cannot touch; fitted by `benchmarks/budget.py --fit` on the paper mission, a city
+# and two crops of Helsinki (docs/data/budget.json)
+QP_SECONDS, QP_SECONDS_PER_NNZ = 0.51e-3, 0.0073e-6
+CONFIRMATION_QPS = 8  # Clarabel confirming an infeasible node (~10 ms) counts as this many QPs
 
 
 @dataclass
 class Budget:
-    """What one solve may spend: ``seconds`` of nominal QP time, turned into a count of
+    """What one solve may spend: ``seconds`` of the reference machine, turned into a count of
     fixed-face QPs (``qps``) by the solver once it knows which obstacles the plan can touch
     (:meth:`OuterApproximation.qp_seconds`), so that a plan depends on its inputs only and
     not on the machine's speed or load (campaigns stay bit-identical for any number of
@@ -111,6 +115,8 @@ class Budget:
     master: bool = False
     capped: bool = False
     qps: int | None = None
+    qp_seconds: float = 0.0  # the cost of one QP on the reference machine, once qps is set
+    taken: int = 0
 
     def take(self, need: bool = False) -> bool:
         """Spend one QP if the count allows (or ``need``: no plan yet), before the deadline."""
@@ -120,7 +126,18 @@ class Budget:
         if self.qps <= 0 and not need:
             return False
         self.qps -= 1
+        self.taken += 1
         return True
+
+    def charge(self, qps: int) -> None:
+        """Count ``qps`` more QPs' worth of work (a Clarabel confirmation costs several)."""
+        self.qps -= qps
+        self.taken += qps
+
+    @property
+    def spent(self) -> float:
+        """Reference seconds spent so far."""
+        return self.taken * self.qp_seconds
 
     @property
     def left(self) -> bool:
@@ -144,6 +161,8 @@ class Solution:
     iterations: int
     plan: QpSolution | None
     message: str = ""
+    work: float = 0.0  # reference seconds of the budget spent
+    guarded_from: int = 2  # the first planned step whose avoidance rows all hold (later than 2: a start in a margin)
 
 
 @dataclass(eq=False)
@@ -209,7 +228,7 @@ class OuterApproximation:
         self.nnz_obstacle = per_row[per_obstacle].sum() / max(self.shape[1], 1)
 
     def qp_seconds(self, obstacles: int) -> float:
-        """Nominal seconds of one QP of the program with ``obstacles`` obstacles a plan can
+        """Reference seconds of one QP of the program with ``obstacles`` obstacles a plan can
         touch (the others' rows are redundant and left out of every QP)."""
         return QP_SECONDS + QP_SECONDS_PER_NNZ * (self.nnz_base + self.nnz_obstacle * obstacles)
 
@@ -244,7 +263,7 @@ class OuterApproximation:
                and escape < self.shape[0]):
             sol = self._solve(x0, goal, budget, warm, escape, near, box)
             escape *= 2
-        return sol
+        return replace(sol, work=budget.spent)
 
     def _solve(self, x0, goal, budget, warm, escape: int, near: np.ndarray | None = None, box=None) -> Solution:
         """:meth:`solve` with the obstacles ``near (n,)`` dropped for the first ``escape`` steps."""
@@ -268,12 +287,14 @@ class OuterApproximation:
             stuck[:escape, near] = True
         needed = ~redundant(face_lo, b, valid) & ~stuck
         if budget.qps is None:
-            budget.qps = max(1, int(budget.seconds / self.qp_seconds(int(needed.any(axis=0).sum()))))
+            budget.qp_seconds = self.qp_seconds(int(needed.any(axis=0).sum()))
+            budget.qps = max(1, int(budget.seconds / budget.qp_seconds))
         if not np.any((inside(relax.x[2:, :2], self.faces, b) > 1e-7) & ~stuck):  # the obstacle-free optimum is clear
             y = choose_faces(relax.x[2:, :2], self.faces, b, *prune(face_lo, face_hi, b, valid, stuck))
             plan = self._reference(lo, hi, replace(relax, y=y))
             return self._noted(Solution("optimal", plan.f, min(relax.f, plan.f), 0.0, 0, plan), stuck, budget)
-        hi[self.c.sum_rows] = np.where(stuck.reshape(-1), 4.0, 3.0)  # Eq. (8e) off for stuck pairs
+        f = self.shape[2]
+        hi[self.c.sum_rows] = np.where(stuck.reshape(-1), f, f - 1.0)  # Eq. (8e) off for stuck pairs
         bounds = prune(face_lo, face_hi, b, valid, stuck)
         ctx = _Context(lo, hi, b, stuck, needed, relax, x0, goal, budget,
                        [relax.s] + ([warm[1]] if warm is not None else []), box)
@@ -289,19 +310,30 @@ class OuterApproximation:
     def _noted(self, sol: Solution, stuck: np.ndarray, budget: Budget) -> Solution:
         """``sol`` with what a plan must tell its reader: avoidance dropped at early steps,
         a wall-clock stop."""
-        notes = [sol.message] if sol.message else []
+        notes, guarded = [sol.message] if sol.message else [], 2
         if stuck.any() and sol.plan is not None:
             names = ", ".join(f"'{self.geom.names[k]}'" for k in np.flatnonzero(stuck.any(axis=0)))
-            last = int(np.flatnonzero(stuck.any(axis=1))[-1]) + 2
-            notes.append(f"start inside the margin of {names}: avoided from step {last + 1}")
+            guarded = int(np.flatnonzero(stuck.any(axis=1))[-1]) + 3
+            notes.append(f"start inside the margin of {names}: avoided from step {guarded}")
         if budget.capped:
             notes.append("stopped by the wall-clock cap, not the work budget: may differ on another machine")
-        return replace(sol, message="; ".join(notes))
+        return replace(sol, message="; ".join(notes), guarded_from=guarded)
 
     def _reference(self, lo, hi, plan: QpSolution) -> QpSolution:
         """The plan returned: with :attr:`reference_plans`, Clarabel's solution of the QP
         that gave it (:meth:`.qp.FixedFaceQP.reference`)."""
         return self.qp.reference(lo, hi, plan) if self.reference_plans else plan
+
+    def with_faces(self, x0: np.ndarray, goal: np.ndarray, y: np.ndarray,
+                   box: tuple[np.ndarray, np.ndarray] | None = None) -> QpSolution | None:
+        """P1 from ``x0`` with the face choice ``y (T-1, n, F)`` fixed: one QP (None if it
+        has no plan).  Where ``y`` is the optimal choice of a nearby start, this is the
+        optimum's branch of P1, which is piecewise affine in the start."""
+        lo, hi = self.c.rows(np.r_[x0, goal])
+        if box is not None:
+            rows = self.c.terminal_rows
+            lo[rows], hi[rows] = np.maximum(lo[rows], box[0]), np.minimum(hi[rows], box[1])
+        return self.qp.solve(lo, hi, y)
 
     # ------------------------------------------------------------------ pieces
     def _qp(self, ctx: "_Context", y: np.ndarray, best: QpSolution | None) -> QpSolution | None:
@@ -498,8 +530,11 @@ class OuterApproximation:
         if bounds is None:  # no plan with f <= UB beyond the incumbent
             return best, min(cutoff, ub), True
         y_lo, y_hi = bounds
+        root = np.where(y_hi == 0, 0.0, 1.0)
         ticket = itertools.count()  # heap tie-breaker: nodes never compare their arrays
-        heap, solved = [(ctx.relax.f, next(ticket), np.where(y_hi == 0, 0.0, 1.0), fb.boxes)], 0
+        # a node: its bound, a ticket, the faces it switches on beyond the root's (flat indices) and its step
+        # boxes: a few hundred bytes, where y itself is T n F floats
+        heap, solved = [(ctx.relax.f, next(ticket), (), fb.boxes)], 0
         open_pair = (y_lo == 0).any(axis=2)  # pairs with a face to choose (not stuck)
         step = self.reach.v_max * self.reach.dt
         limit = np.inf if self.bnb_nodes is None else self.bnb_nodes
@@ -507,11 +542,16 @@ class OuterApproximation:
             bound = heap[0][0]
             if bound >= cutoff:
                 return best, cutoff, True  # best-first: every open node bounds at or above the cutoff
-            if solved >= limit or not ctx.budget.take():
+            if solved >= limit or not ctx.budget.take() or len(heap) > MAX_OPEN_NODES:
                 return best, bound, False
-            _, _, y, boxes = heapq.heappop(heap)
+            _, _, on, boxes = heapq.heappop(heap)
+            y = root.copy()
+            y.reshape(-1)[list(on)] = 0.0
+            confirmed = self.qp.counts["confirmed infeasible"] + self.qp.counts["overruled"]
             sol = self.qp.solve(ctx.lo, ctx.hi, y, bound=True, needed=needed)
             solved += 1
+            if self.qp.counts["confirmed infeasible"] + self.qp.counts["overruled"] > confirmed:
+                ctx.budget.charge(CONFIRMATION_QPS)  # Clarabel re-checked an infeasible verdict
             if sol is None or sol.f >= cutoff:
                 continue
             ctx.points.append(sol.s)
@@ -527,9 +567,8 @@ class OuterApproximation:
                 within = beyond(boxes, r, self.faces.normals[j, i], ctx.b[r, j, i], step)
                 if within is None:
                     continue  # out of reach given the faces already on: infeasible without a QP
-                child = y.copy()
-                child[r, j, i] = 0.0
-                heapq.heappush(heap, (sol.f, next(ticket), child, within))
+                flat = int(np.ravel_multi_index((r, j, i), y.shape))
+                heapq.heappush(heap, (sol.f, next(ticket), (*on, flat), within))
         return best, min(cutoff, np.inf if best is None else best.f), True
 
     def _master(self, ctx, ub, points, dead, time_limit, cutoff, best) -> highspy.Highs | None:

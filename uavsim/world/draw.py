@@ -30,8 +30,7 @@ TARGET_COV0 = next(spec for spec in TARGET_KEYS if spec.key == "cov0_si")
 class Settings:
     """The settings written into every generated mission: the declared defaults (the
     paper's, [Papaioannou2023, Sec. VI-A]; :mod:`uavsim.declare`), except ``trials`` (10: a generated
-    world is for a first look; ``--trials`` sets more) and, for a city, the first plans'
-    ``time_limit_s`` (:data:`CITY_TIME_LIMIT_S`).  A world's own UAV start, altitude,
+    world is for a first look; ``--trials`` sets more).  A world's own UAV start, altitude,
     region, manoeuvre sizes and fixed sensors are drawn per world."""
 
     dynamics: Dynamics = field(default_factory=Dynamics)

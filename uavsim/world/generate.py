@@ -39,7 +39,6 @@ from dataclasses import replace
 import numpy as np
 
 from ..declare import specs
-from ..guidance.model import GuidanceConfig
 from ..uav import FixedSensorsConfig, ManoeuvreConfig, PlannerConfig
 from ..writer import mission_text, value_text
 from . import city
@@ -170,9 +169,6 @@ def _obstacles(rng, layout: _Layout, k: int, goal_c, goal_s, margin, extent) -> 
 
 # --------------------------------------------------------------------------- the generator
 KINDS = {"open": (MAX_OBSTACLES, MAX_TARGETS), "city": (150, 16)}  # kind: most obstacles, most targets
-# a city's first plans: 60 nominal s certified 57 of 58 first plans of 100-building cities within 1.8 s
-# of wall time (10 s: 49 of 58, plans up to 1.73x the optimum); docs/guidance-cities.md
-CITY_TIME_LIMIT_S = 60.0
 
 
 def generate(rng: np.random.Generator | int, obstacles: int, targets: int | None = None,
@@ -185,13 +181,11 @@ def generate(rng: np.random.Generator | int, obstacles: int, targets: int | None
     obstacles : cuboids, 0..15 of the kind "open" (this module's docstring), 0..150
         buildings of the kind "city" (:mod:`uavsim.world.city`).
     targets : 1..8 ("open"), 1..16 ("city"); None: drawn from ``rng``.
-    settings : the mission numbers (default: the paper's, and for a city a first-plan budget
-        of :data:`CITY_TIME_LIMIT_S`); name : default the kind's.
+    settings : the mission numbers (default: the paper's); name : default the kind's.
     """
     if kind not in KINDS:
         raise ValueError(f"unknown world kind {kind!r}; choose from {', '.join(KINDS)}")
-    if settings is None:
-        settings = Settings(guidance=GuidanceConfig(time_limit=CITY_TIME_LIMIT_S)) if kind == "city" else Settings()
+    settings = settings or Settings()
     most_obstacles, most_targets = KINDS[kind]
     seed = rng if isinstance(rng, (int, np.integer)) else None
     rng = np.random.default_rng(rng)
