@@ -1,22 +1,25 @@
 """Guidance budgets against the wall clock: what a reference second of time_limit_s or replan_budget_s costs here.
 
-    python benchmarks/budget.py [--missions paper,city,helsinki,station] [--replans 10] [--fit] [--json PATH]
+    python benchmarks/budget.py [--missions paper,city,helsinki,station,grid] [--replans 10] [--fit] [--json PATH]
 
-A plan's budget is counted in fixed-face QPs at their cost on the reference machine
-(:data:`uavsim.guidance.oa.QP_SECONDS` + :data:`uavsim.guidance.oa.QP_SECONDS_PER_NNZ` per
-non-zero of the program, less the obstacles the plan cannot touch), so that plans are the
-same on any machine; this script measures what that reference second is in wall seconds here.
-For every target of each mission it makes the cold first plan (``time_limit_s``) and
-``--replans`` rolling re-plans (``replan_budget_s``, each from the previous plan's first
-mean plus process noise, as :func:`benchmarks.guidance.rolling` does), and prints per
-mission and kind the plans, the reference seconds spent (:attr:`uavsim.guidance.Plan.work_seconds`),
-the wall seconds, and their ratio (median, p10, p90, over plans that spent at least 0.05
-reference s).  ``--fit`` also prints the constants that make the median ratio 1 (a least-squares fit of wall seconds
-per QP against the QP's non-zeros over every plan).
+A plan's budget is in seconds of the reference machine: each fixed-face QP is charged what
+it costs there from what it did (:data:`uavsim.guidance.qp.WORK_CALL_S` per DAQP call,
+``WORK_ROW_S`` per row, ``WORK_ITERATION_S`` per iteration, ``WORK_CLARABEL_S`` per Clarabel
+solve, and :data:`uavsim.guidance.oa.NODE_SECONDS` for the search round it), so that
+plans are the same on any machine; this script measures what that reference second is
+in wall seconds here.  For every target of each mission it makes the cold first plan
+(``time_limit_s``) and ``--replans`` rolling re-plans (``replan_budget_s``, each from the
+previous plan's first mean plus process noise, as :func:`benchmarks.guidance.rolling`
+does), and prints per mission and kind the plans, the reference seconds spent
+(:attr:`uavsim.guidance.Plan.work_seconds`), the wall seconds, and their ratio (median,
+p10, p90, over plans that spent at least 0.05 reference s).  ``--fit`` also prints the
+constants a least-squares fit of the plans' wall seconds on their counts (QPs, DAQP calls,
+rows, iterations, Clarabel solves) gives.
 
 Missions: ``paper`` (missions/paper.toml), ``city`` (a generated city of 50 buildings and 8
-targets, seed 11), ``helsinki`` (missions/helsinki.toml) and ``station`` (the 554 x 557 m
-crop of central Helsinki round the railway station, imported).
+targets, seed 11), ``helsinki`` (missions/helsinki.toml), ``station`` (the 554 x 557 m
+crop of central Helsinki round the railway station, imported) and ``grid`` (a street grid
+of 42 blocks drawn by hand, benchmarks/towns/grid.toml, whose targets cross the town).
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ import numpy as np
 from harness import ROOT, markdown_table, parser, run
 
 import uavsim.guidance.oa as oa
+import uavsim.guidance.qp as qp
 from uavsim.cli import main as cli
 from uavsim.config import load_mission
 from uavsim.guidance import Guidance
@@ -40,6 +44,8 @@ def mission_path(name: str, folder: Path) -> Path:
     """The mission file of a named benchmark mission (made in ``folder`` where needed)."""
     if name in ("paper", "helsinki"):
         return ROOT / "missions" / f"{name}.toml"
+    if name == "grid":
+        return ROOT / "benchmarks" / "towns" / "grid.toml"
     out = folder / f"{name}.toml"
     if name == "city":
         cli(["world", "generate", "--kind", "city", "--seed", "11", "--obstacles", "50", "--targets", "8", "--out",
@@ -51,31 +57,38 @@ def mission_path(name: str, folder: Path) -> Path:
 
 
 class Counter:
-    """Counts the QPs every budget takes and records each budget's reference cost per QP."""
+    """Counts what the solver does (QPs charged, DAQP calls, rows, iterations, Clarabel
+    solves) while it is entered."""
 
     def __init__(self):
-        self.qps, self.cost = 0, 0.0
-        self._take = oa.Budget.take
+        self.n = dict.fromkeys(("qps", "calls", "rows", "iterations", "clarabel"), 0)
+        self._daqp, self._charged, self._solve = qp._daqp, oa.OuterApproximation._charged, qp.ClarabelQP.solve
 
     def __enter__(self):
-        counter = self
+        n = self.n
 
-        def take(budget, need=False):
-            ok = counter._take(budget, need)
-            if ok:
-                counter.qps += 1
-                counter.cost = budget.qp_seconds
-            return ok
+        def daqp(k, a, rows, *args):
+            out = self._daqp(k, a, rows, *args)
+            n["calls"], n["rows"], n["iterations"] = n["calls"] + 1, n["rows"] + len(rows), n["iterations"] + out[-1]
+            return out
 
-        oa.Budget.take = take
+        def charged(solver, ctx, y, **kw):
+            n["qps"] += 1
+            return self._charged(solver, ctx, y, **kw)
+
+        def clarabel(solver, *args, **kw):
+            n["clarabel"] += 1
+            return self._solve(solver, *args, **kw)
+
+        qp._daqp, oa.OuterApproximation._charged, qp.ClarabelQP.solve = daqp, charged, clarabel
         return self
 
     def __exit__(self, *exc):
-        oa.Budget.take = self._take
+        qp._daqp, oa.OuterApproximation._charged, qp.ClarabelQP.solve = self._daqp, self._charged, self._solve
 
 
 def plans(mission, replans: int, rng) -> list[dict]:
-    """Every target's first plan and rolling re-plans: kind, wall s, reference s, QPs, cost per QP."""
+    """Every target's first plan and rolling re-plans: kind, wall s, reference s, status and the counts."""
     g = Guidance(mission.world, mission.dynamics, mission.guidance)
     noise = np.sqrt(np.diag(mission.dynamics.q))
     out = []
@@ -87,8 +100,8 @@ def plans(mission, replans: int, rng) -> list[dict]:
                 t0 = time.perf_counter()
                 plan = g.plan(mean, target.cov0, goal, warm=prev, step=k)
                 wall = time.perf_counter() - t0
-            out.append(dict(kind="first" if prev is None else "re-plan", wall=wall, work=plan.work_seconds, qps=c.qps,
-                            qp_cost=c.cost, status=plan.status))
+            out.append(dict(kind="first" if prev is None else "re-plan", wall=wall, work=plan.work_seconds,
+                            status=plan.status, **c.n))
             if not plan.ok:
                 break
             prev = plan
@@ -106,15 +119,20 @@ def summary(rows: list[dict]) -> dict:
                 certified=sum(r["status"] == "optimal" for r in rows) / max(len(rows), 1))
 
 
-def fit(rows: list[dict]) -> tuple[float, float]:
-    """``(a, b)`` with wall seconds per QP ~ a + b nnz (least squares over the plans' QPs,
-    each plan weighted by its QPs); nnz from the reference cost the budget charged."""
-    rows = [r for r in rows if r["qps"]]
-    nnz = np.array([(r["qp_cost"] - oa.QP_SECONDS) / oa.QP_SECONDS_PER_NNZ for r in rows])
-    per = np.array([r["wall"] / r["qps"] for r in rows])
-    w = np.sqrt([r["qps"] for r in rows])
-    (a, b), *_ = np.linalg.lstsq(np.column_stack([w, w * nnz]), w * per, rcond=None)
-    return float(a), float(b)
+FIT = ("qps", "calls", "rows", "iterations", "clarabel")
+
+
+def fit(rows: list[dict]) -> dict[str, float]:
+    """Seconds per QP (the search round it), DAQP call, row, iteration and Clarabel solve:
+    non-negative least squares of the plans' wall seconds on their counts, each plan
+    weighted by 1 / sqrt(its wall time) (relative errors count alike)."""
+    from scipy.optimize import nnls
+
+    x = np.array([[r[k] for k in FIT] for r in rows], dtype=float)
+    wall = np.array([r["wall"] for r in rows])
+    w = 1.0 / np.sqrt(np.maximum(wall, 1e-3))
+    coef, _ = nnls(x * w[:, None], wall * w)
+    return dict(zip(FIT, coef.tolist()))
 
 
 def body(args) -> dict:
@@ -132,18 +150,18 @@ def body(args) -> dict:
                               f"{100 * s['certified']:.0f}%"])
     print(markdown_table(["mission", "plans", "count", "reference s", "wall s", "wall / reference: median (p10-p90)",
                           "certified"], table))
-    out = {"missions": results, "qp_seconds": oa.QP_SECONDS, "qp_seconds_per_nnz": oa.QP_SECONDS_PER_NNZ}
+    now = dict(zip(FIT, (oa.NODE_SECONDS, qp.WORK_CALL_S, qp.WORK_ROW_S, qp.WORK_ITERATION_S, qp.WORK_CLARABEL_S)))
+    out = {"missions": results, "work_constants": now}
     if args.fit:
-        a, b = fit(every)
-        print(f"wall seconds per QP ~ {a * 1e3:.3f} ms + {b * 1e6:.4f} us per non-zero "
-              f"(now: {oa.QP_SECONDS * 1e3:.3f} ms + {oa.QP_SECONDS_PER_NNZ * 1e6:.4f} us)")
-        out["fit"] = {"qp_seconds": a, "qp_seconds_per_nnz": b}
+        got = fit(every)
+        print("seconds per " + ", ".join(f"{k}: {got[k] * 1e3:.4f} ms (now {now[k] * 1e3:.4f})" for k in FIT))
+        out["fit"] = got
     return out
 
 
 if __name__ == "__main__":
     ap = parser(__doc__)
-    ap.add_argument("--missions", default="paper,city,helsinki,station")
+    ap.add_argument("--missions", default="paper,city,helsinki,station,grid")
     ap.add_argument("--replans", type=int, default=10)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--fit", action="store_true")

@@ -2,7 +2,6 @@
 
     python benchmarks/qp_solvers.py record [--out runs/qps.pkl] [--steps 50] [--worlds 4 12 31]
     python benchmarks/qp_solvers.py compare [--data runs/qps.pkl] [--stride 10] [--block 2] [--solvers ...]
-    python benchmarks/qp_solvers.py calibrate [--horizons 10 25 50] [--worlds 4 12 31]
 
 ``record`` runs what the guidance really solves and keeps every fixed-face QP it hands
 to :class:`uavsim.guidance.qp.FixedFaceQP` (row bounds, face choice, ``relax``): the
@@ -17,10 +16,6 @@ installed (a missing one is skipped with a message) and prints per solver the me
 p90 and max CPU milliseconds per QP, the iterations, the first QP of each plan alone (a
 warm start from the previous plan), the objective's relative error against Clarabel at
 1e-11 tolerances, and the infeasible QPs it detected, and any verdict it got wrong.
-
-``calibrate`` fits the nominal QP cost of the guidance budgets
-(``uavsim.guidance.oa.QP_SECONDS + QP_SECONDS_PER_NNZ * nnz``) to the mean CPU seconds per
-QP of rolling re-plans at several horizons, on the paper mission and the worlds.
 """
 
 from __future__ import annotations
@@ -520,54 +515,6 @@ def report(out, ref) -> dict:
             "over": int(np.sum(np.array(err) > 1e-9)), "inf_ok": inf_ok, "inf_wrong": wrong, "other": other}
 
 
-# --------------------------------------------------------------------------- calibrate
-def calibrate(args) -> None:
-    """Fit the nominal QP cost ``QP_SECONDS + QP_SECONDS_PER_NNZ * nnz`` (uavsim.guidance.oa)
-    to the mean CPU seconds of the QPs the solver really solves: rolling re-plans of every
-    target at several horizons on the paper mission and the generated worlds."""
-    from uavsim.guidance.oa import QP_SECONDS, QP_SECONDS_PER_NNZ
-
-    rng = np.random.default_rng(args.seed)
-    folder = Path(args.out).parent / "qp-worlds"
-    runs = [("paper", Path("missions/paper.toml"))] + [(f"world s{s}", write_world(s, folder)) for s in args.worlds]
-    points = []
-    print(f"{'program':<12}{'T':>4}{'nnz':>7}{'QPs':>6}{'mean ms':>9}{'median ms':>10}{'nominal ms':>11}")
-    for name, path in runs:
-        m = load_mission(path)
-        for horizon in args.horizons:
-            g = Guidance(m.world, m.dynamics, m.guidance)
-            oa = g._model(horizon)[1]
-            secs, solve = [], oa.qp.solve
-
-            def timed(*a, solve=solve, secs=secs, **k):
-                t0 = time.process_time()
-                try:
-                    return solve(*a, **k)
-                finally:
-                    secs.append(time.process_time() - t0)
-
-            oa.qp.solve = timed
-            for t in m.targets:
-                goal = m.world.goals[t.goal].centroid
-                mean, prev = t.mean0.copy(), None
-                for _ in range(args.steps):
-                    plan = g.plan(mean, t.cov0, goal, warm=prev, horizon=horizon)
-                    if not plan.ok:
-                        break
-                    prev = plan
-                    mean = plan.means[0] + rng.standard_normal(6) * np.sqrt(np.diag(m.dynamics.q))
-                    mean[[2, 5]] = 0.0
-            nnz = oa.c.a.nnz
-            points.append((nnz, np.mean(secs), len(secs)))
-            print(f"{name:<12}{horizon:>4}{nnz:>7}{len(secs):>6}{np.mean(secs) * 1e3:>9.3f}"
-                  f"{np.median(secs) * 1e3:>10.3f}{(QP_SECONDS + QP_SECONDS_PER_NNZ * nnz) * 1e3:>11.3f}")
-    nnz, mean, count = map(np.array, zip(*points))
-    fit = np.linalg.lstsq(np.column_stack([np.ones(len(nnz)), nnz]) * np.sqrt(count)[:, None], mean * np.sqrt(count),
-                          rcond=None)[0]
-    print(f"least squares (weighted by QP count): QP_SECONDS = {fit[0]:.2e}, QP_SECONDS_PER_NNZ = {fit[1]:.2e} "
-          f"(now {QP_SECONDS:g}, {QP_SECONDS_PER_NNZ:g})")
-
-
 def main() -> None:
     ap = parser(__doc__)
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -582,18 +529,12 @@ def main() -> None:
     c.add_argument("--stride", type=int, default=10, help="keep plans p with p %% stride < block")
     c.add_argument("--block", type=int, default=3)
     c.add_argument("--solvers", nargs="*", default=list(SOLVERS), choices=list(SOLVERS))
-    k = sub.add_parser("calibrate", help="fit the nominal QP cost of the guidance budgets")
-    k.add_argument("--out", default="runs/qps.pkl", help="generated worlds go beside it")
-    k.add_argument("--worlds", type=int, nargs="*", default=[4, 12, 31])
-    k.add_argument("--horizons", type=int, nargs="*", default=[10, 25, 50])
-    k.add_argument("--steps", type=int, default=10, help="re-plans per target")
-    k.add_argument("--seed", type=int, default=1)
     run(measure, ap)
 
 
 def measure(args) -> None:
     """The benchmark proper, on the parsed arguments (``harness.run`` records what it prints)."""
-    {"record": record, "compare": compare, "calibrate": calibrate}[args.cmd](args)
+    {"record": record, "compare": compare}[args.cmd](args)
 
 
 if __name__ == "__main__":

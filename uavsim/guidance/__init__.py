@@ -8,12 +8,13 @@ a :class:`Plan`.
 
 **Budgets.**  A first plan (no previous plan to start from) may spend
 ``time_limit_s``; a re-plan ``replan_budget_s``.  Both are seconds of the reference
-machine (this project's 2-core AMD EPYC): counted in fixed-face QPs at what one costs there,
-:data:`.oa.QP_SECONDS` plus :data:`.oa.QP_SECONDS_PER_NNZ` per non-zero of the program
-less the obstacles the plan cannot touch, the branch-and-bound's work round it included
-(``benchmarks/budget.py`` measures the ratio of wall to reference seconds), so a plan
-depends on its inputs only: campaigns stay bit-identical on any machine and for any
-number of workers, and on the reference machine a budget of 10 s takes about 10 s.
+machine (this project's 2-core AMD EPYC): each fixed-face QP is charged what it costs
+there, from what it did (its DAQP calls, rows and iterations, its Clarabel solves:
+:data:`.qp.WORK_CALL_S` and the rest) and the search's work round it
+(:data:`.oa.NODE_SECONDS`), not from the clock, so a plan depends on its inputs only:
+campaigns stay bit-identical on any machine and for any number of workers, and on the
+reference machine a budget of 10 s takes about 10 s (``benchmarks/budget.py`` measures
+the ratio of wall to reference seconds).
 A wall-clock cap of :data:`WALL_CAP` times the budget stops a solve that runs far slower
 than that; the plan then says so.  Within its budget a solve returns the best
 collision-free plan it has, with its certified gap (status "feasible" when above the

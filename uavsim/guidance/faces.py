@@ -104,6 +104,18 @@ class Reach:
     def horizon(self) -> int:
         return len(self.sigma) - 1
 
+    def progress(self, x0: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        """``(T + 1,)`` the farthest ``p_tau`` can be from ``p_0`` along ``direction (2,)``:
+        the zero-force drift of the start's velocity plus the force limit's reach (per
+        axis, as if the force pushed along the direction), and no more than the speed limit
+        allows after the first step.  An upper bound: a path round corners makes less."""
+        d = np.asarray(direction, dtype=float)
+        d = d / max(np.linalg.norm(d), 1e-12)
+        along = max(float(d @ x0[2:]), 0.0)
+        tau = np.arange(self.horizon + 1)
+        first = self.dt * np.linalg.norm(x0[2:])
+        return np.minimum(self.free * along + self.force, first + np.maximum(tau - 1, 0) * self.dt * self.v_max)
+
     def face_bounds(self, x0, goal, normals: np.ndarray, ub=np.inf, relaxed=None, box=None) -> Bounds:
         """:class:`Bounds` of ``p_tau`` for tau = 2..T and of ``a_i . p_tau`` for the face
         ``normals (n, F, 2)``.

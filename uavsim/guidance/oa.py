@@ -86,62 +86,43 @@ NO_PLAN_AT_ALL = "no plan meets the speed, force and area limits even without ob
 UNREACHABLE = "the goal region cannot be reached within the horizon under the speed, force and area limits"
 NO_SAFE_ARRIVAL = "no collision-free plan ends in the goal region within the horizon"
 ROUTES = 3  # topologically distinct shortest routes that seed the face choices of a first plan
+PACES = (1.0, 0.8, 0.6)  # progress profiles along a route, fractions of the farthest the target can go
 
 
 MAX_OPEN_NODES = 500_000  # a tree this wide stops with its bound (about 1 GB of nodes), as the budget does
-
-# the cost of one fixed-face QP on the reference machine (2-core AMD EPYC), the branch-and-bound's
-# work around it included: QP_SECONDS + QP_SECONDS_PER_NNZ per non-zero of the program without the
-# obstacles a plan cannot touch; fitted by `benchmarks/budget.py --fit` on the paper mission, a city
-# and two crops of Helsinki (docs/data/budget.json)
-QP_SECONDS, QP_SECONDS_PER_NNZ = 0.51e-3, 0.0073e-6
-CONFIRMATION_QPS = 8  # Clarabel confirming an infeasible node (~10 ms) counts as this many QPs
-
+NODE_SECONDS = 0.19e-3  # the work round one QP of the search (faces, reach boxes, branching), reference s
 
 @dataclass
 class Budget:
-    """What one solve may spend: ``seconds`` of the reference machine, turned into a count of
-    fixed-face QPs (``qps``) by the solver once it knows which obstacles the plan can touch
-    (:meth:`OuterApproximation.qp_seconds`), so that a plan depends on its inputs only and
-    not on the machine's speed or load (campaigns stay bit-identical for any number of
-    workers); ``deadline`` (``time.perf_counter``) caps the wall clock as a safety net, and
-    ``capped`` records that it, not the count, stopped the solve (the plan may then differ
-    on another machine).  ``master``: whether the MILP master may run (HiGHS's root work is
-    bounded by time only, so only cold plans use it).  A solve with no feasible plan yet
-    keeps going past ``qps`` until the deadline."""
+    """What one solve may spend: ``seconds`` of the reference machine.  Each fixed-face QP
+    is charged what it costs there (:attr:`.qp.FixedFaceQP.work`: from its DAQP iterations
+    and rows, and its Clarabel calls, not from the clock), so that a plan depends on its
+    inputs only and not on the machine's speed or load (campaigns stay bit-identical for
+    any number of workers); ``deadline`` (``time.perf_counter``) caps the wall clock as a
+    safety net, and ``capped`` records that it, not the work, stopped the solve (the plan
+    may then differ on another machine).  ``master``: whether the MILP master may run
+    (HiGHS's root work is bounded by time only, so only cold plans use it).  A solve with
+    no feasible plan yet keeps going past ``seconds`` until the deadline."""
 
     seconds: float
     deadline: float
     master: bool = False
     capped: bool = False
-    qps: int | None = None
-    qp_seconds: float = 0.0  # the cost of one QP on the reference machine, once qps is set
-    taken: int = 0
+    spent: float = 0.0  # reference seconds charged so far
 
     def take(self, need: bool = False) -> bool:
-        """Spend one QP if the count allows (or ``need``: no plan yet), before the deadline."""
+        """Whether another QP may run: work left (or ``need``: no plan yet), before the deadline."""
         if time.perf_counter() > self.deadline:
             self.capped = True
             return False
-        if self.qps <= 0 and not need:
-            return False
-        self.qps -= 1
-        self.taken += 1
-        return True
+        return need or self.spent < self.seconds
 
-    def charge(self, qps: int) -> None:
-        """Count ``qps`` more QPs' worth of work (a Clarabel confirmation costs several)."""
-        self.qps -= qps
-        self.taken += qps
-
-    @property
-    def spent(self) -> float:
-        """Reference seconds spent so far."""
-        return self.taken * self.qp_seconds
+    def charge(self, seconds: float) -> None:
+        self.spent += seconds
 
     @property
     def left(self) -> bool:
-        return self.qps > 0 and time.perf_counter() <= self.deadline
+        return self.spent < self.seconds and time.perf_counter() <= self.deadline
 
 
 @dataclass(frozen=True, eq=False)
@@ -220,17 +201,6 @@ class OuterApproximation:
         self.cost = np.r_[np.zeros(c.n_cols), c.term_w]
         self.integrality = np.zeros(c.n_cols + k)
         self.integrality[c.y_cols.ravel()] = 1
-        self.avoid_rows = np.flatnonzero(c.row_y >= 0)
-        per_obstacle = np.zeros(c.a.shape[0], bool)
-        per_obstacle[self.avoid_rows], per_obstacle[c.sum_rows] = True, True
-        per_row = np.diff(c.a.indptr)
-        self.nnz_base = int(per_row[~per_obstacle].sum())
-        self.nnz_obstacle = per_row[per_obstacle].sum() / max(self.shape[1], 1)
-
-    def qp_seconds(self, obstacles: int) -> float:
-        """Reference seconds of one QP of the program with ``obstacles`` obstacles a plan can
-        touch (the others' rows are redundant and left out of every QP)."""
-        return QP_SECONDS + QP_SECONDS_PER_NNZ * (self.nnz_base + self.nnz_obstacle * obstacles)
 
     # ------------------------------------------------------------------ public
     def solve(self, x0: np.ndarray, goal: np.ndarray, budget: Budget,
@@ -286,9 +256,6 @@ class OuterApproximation:
         if escape:
             stuck[:escape, near] = True
         needed = ~redundant(face_lo, b, valid) & ~stuck
-        if budget.qps is None:
-            budget.qp_seconds = self.qp_seconds(int(needed.any(axis=0).sum()))
-            budget.qps = max(1, int(budget.seconds / budget.qp_seconds))
         if not np.any((inside(relax.x[2:, :2], self.faces, b) > 1e-7) & ~stuck):  # the obstacle-free optimum is clear
             y = choose_faces(relax.x[2:, :2], self.faces, b, *prune(face_lo, face_hi, b, valid, stuck))
             plan = self._reference(lo, hi, replace(relax, y=y))
@@ -336,11 +303,18 @@ class OuterApproximation:
         return self.qp.solve(lo, hi, y)
 
     # ------------------------------------------------------------------ pieces
+    def _charged(self, ctx: "_Context", y: np.ndarray, **kw) -> QpSolution | None:
+        """The fixed-face QP for ``y`` at the solve's parameters, its work charged to the budget."""
+        before = self.qp.work
+        sol = self.qp.solve(ctx.lo, ctx.hi, y, **kw)
+        ctx.budget.charge(self.qp.work - before + NODE_SECONDS)
+        return sol
+
     def _qp(self, ctx: "_Context", y: np.ndarray, best: QpSolution | None) -> QpSolution | None:
         """The fixed-face QP, if the budget allows (always while no plan exists yet)."""
         if not ctx.budget.take(need=best is None):
             return None
-        sol = self.qp.solve(ctx.lo, ctx.hi, y, needed=ctx.needed)
+        sol = self._charged(ctx, y, needed=ctx.needed)
         if sol is not None:
             ctx.points.append(sol.s)
         return sol
@@ -367,16 +341,25 @@ class OuterApproximation:
     def _route_faces(self, ctx, bounds) -> list[np.ndarray]:
         """Face choices along the :data:`ROUTES` shortest topologically distinct routes
         round the inflated obstacles (:func:`uavsim.world.routes.distinct_routes`), from the first
-        planned position to the goal.  Step tau is placed on a route at the fraction of the
-        route the obstacle-free optimum has covered by then (same speed profile, longer
-        path); each step takes, per obstacle, the allowed face that point is most clearly
+        planned position to the goal.  Step tau is placed on a route by a progress profile:
+        at the fraction of the route the obstacle-free optimum has covered by then (same
+        speed profile, longer path), and at :data:`PACES` of the farthest the target can
+        have come by then (:meth:`.faces.Reach.progress`; a route longer than the horizon's
+        reach, where the first profile runs ahead of what the force limit allows, needs
+        these); each step takes, per obstacle, the allowed face that point is most clearly
         beyond.  Dives from the straight line find only the detours nearest to it; a route
         round the far side of a wall, or through a corridor, comes from here."""
         g, x = self.geom, ctx.relax.x[1:, :2]  # planned positions of steps 1..T
         routes = distinct_routes(x[0], ctx.goal, g.polys, g.area_lo, g.area_hi, k=ROUTES)
         cum = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(x, axis=0), axis=1))]
         frac = cum[1:] / cum[-1] if cum[-1] > 1e-9 else np.linspace(0.0, 1.0, len(cum))[1:]
-        return [choose_faces(r.at(frac * r.length), self.faces, ctx.b, *bounds) for r in routes]
+        out = []
+        for r in routes:
+            ahead = r.points[min(1, len(r.points) - 1)] - r.points[0]
+            progress = self.reach.progress(ctx.x0, ahead)[2:] - self.reach.progress(ctx.x0, ahead)[1]
+            profiles = [frac * r.length] + [np.minimum(pace * progress, r.length) for pace in PACES]
+            out += [choose_faces(r.at(s), self.faces, ctx.b, *bounds) for s in profiles]
+        return out
 
     def _polish(self, ctx, inc, best, bounds, rounds=3) -> QpSolution | None:
         """Re-read the faces off a plan and re-solve while that improves on ``best``."""
@@ -463,7 +446,7 @@ class OuterApproximation:
             if best is not None and ub - lower <= tol:
                 return self._finish("optimal", best, lower, it)
             remaining = ctx.budget.deadline - time.perf_counter()
-            if remaining <= 0 or (best is not None and ctx.budget.qps <= 0):
+            if remaining <= 0 or (best is not None and ctx.budget.spent >= ctx.budget.seconds):
                 ctx.budget.capped |= remaining <= 0
                 return self._finish("feasible", best, lower, it, "budget reached")
             cutoff = ub - tol * (1 - 1e-9) if best is not None else np.inf  # round-off: reported gap <= tol
@@ -494,8 +477,7 @@ class OuterApproximation:
                                     "master repeated a face choice (solver tolerances)")
             tried.append(y)
             ctx.points.append(z[self.c.term_cols])
-            ctx.budget.qps -= 1
-            inc = self.qp.solve(ctx.lo, ctx.hi, y, bound=True)  # an infeasible one becomes a no-good cut
+            inc = self._charged(ctx, y, bound=True)  # an infeasible one becomes a no-good cut
             if inc is None:
                 dead.append(y)
                 continue
@@ -532,9 +514,9 @@ class OuterApproximation:
         y_lo, y_hi = bounds
         root = np.where(y_hi == 0, 0.0, 1.0)
         ticket = itertools.count()  # heap tie-breaker: nodes never compare their arrays
-        # a node: its bound, a ticket, the faces it switches on beyond the root's (flat indices) and its step
-        # boxes: a few hundred bytes, where y itself is T n F floats
-        heap, solved = [(ctx.relax.f, next(ticket), (), fb.boxes)], 0
+        # a node: its bound, a ticket, the faces it switches on beyond the root's (flat indices), its step
+        # boxes and the speed rows its parent's QP needed: a few hundred bytes, where y itself is T n F floats
+        heap, solved = [(ctx.relax.f, next(ticket), (), fb.boxes, None)], 0
         open_pair = (y_lo == 0).any(axis=2)  # pairs with a face to choose (not stuck)
         step = self.reach.v_max * self.reach.dt
         limit = np.inf if self.bnb_nodes is None else self.bnb_nodes
@@ -544,14 +526,11 @@ class OuterApproximation:
                 return best, cutoff, True  # best-first: every open node bounds at or above the cutoff
             if solved >= limit or not ctx.budget.take() or len(heap) > MAX_OPEN_NODES:
                 return best, bound, False
-            _, _, on, boxes = heapq.heappop(heap)
+            _, _, on, boxes, speed = heapq.heappop(heap)
             y = root.copy()
             y.reshape(-1)[list(on)] = 0.0
-            confirmed = self.qp.counts["confirmed infeasible"] + self.qp.counts["overruled"]
-            sol = self.qp.solve(ctx.lo, ctx.hi, y, bound=True, needed=needed)
+            sol = self._charged(ctx, y, bound=True, needed=needed, speed=speed)
             solved += 1
-            if self.qp.counts["confirmed infeasible"] + self.qp.counts["overruled"] > confirmed:
-                ctx.budget.charge(CONFIRMATION_QPS)  # Clarabel re-checked an infeasible verdict
             if sol is None or sol.f >= cutoff:
                 continue
             ctx.points.append(sol.s)
@@ -568,7 +547,7 @@ class OuterApproximation:
                 if within is None:
                     continue  # out of reach given the faces already on: infeasible without a QP
                 flat = int(np.ravel_multi_index((r, j, i), y.shape))
-                heapq.heappush(heap, (sol.f, next(ticket), (*on, flat), within))
+                heapq.heappush(heap, (sol.f, next(ticket), (*on, flat), within, sol.speed))
         return best, min(cutoff, np.inf if best is None else best.f), True
 
     def _master(self, ctx, ub, points, dead, time_limit, cutoff, best) -> highspy.Highs | None:

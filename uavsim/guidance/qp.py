@@ -65,6 +65,10 @@ DAQP_SETTINGS = dict(primal_tol=1e-9, iter_limit=2000)
 DAQP_OPTIMAL, DAQP_INFEASIBLE = 1, -1
 LAZY_ROUNDS = 4  # rounds of adding violated speed rows before DAQP gets every row
 LAZY_TOL = 1e-8  # a speed row violated by more (m/s) is added
+# what a QP costs on the reference machine (2-core AMD EPYC), from what it did, not from the clock:
+# per DAQP call, per row it was given and per iteration, and per Clarabel solve
+# (benchmarks/budget.py --fit; docs/data/budget.json)
+WORK_CALL_S, WORK_ROW_S, WORK_ITERATION_S, WORK_CLARABEL_S = 0.0, 2.3e-6, 2.2e-6, 10e-3
 
 
 class SolverError(RuntimeError):
@@ -88,6 +92,7 @@ class QpSolution:
     y: np.ndarray
     solved: tuple | None = None
     by: str = "clarabel"
+    speed: np.ndarray | None = None  # ids of the speed-polygon rows DAQP needed (a child's start)
 
 
 class FixedFaceQP:
@@ -111,10 +116,12 @@ class FixedFaceQP:
             self.condensed = None  # not the structure the fast path needs: Clarabel only
         self.counts = dict.fromkeys(("daqp", "daqp infeasible", "clarabel", "confirmed infeasible", "overruled",
                                      "reference"), 0)
+        self.work = 0.0  # reference seconds of every QP solved so far (WORK_*), what budgets charge
         self._context = None
 
     def solve(self, lo: np.ndarray, hi: np.ndarray, y: np.ndarray, relax: bool = False,
-              bound: bool = False, needed: np.ndarray | None = None) -> QpSolution | None:
+              bound: bool = False, needed: np.ndarray | None = None, speed: np.ndarray | None = None
+              ) -> QpSolution | None:
         """Optimal plan for face choice ``y (T-1, n, 4)`` and row bounds ``lo, hi`` (the
         current parameters).  ``relax`` drops Eq. (8d)-(8e) entirely: the obstacle-free
         QP, a relaxation of P1.  Returns None when the QP is infeasible.
@@ -127,9 +134,13 @@ class FixedFaceQP:
         obstacle) pairs; the caller vouches that the others' active faces hold at every
         plan it could use (in practice: at every plan within the reachable set, so the
         rows are redundant).
+
+        ``speed``: ids of speed-polygon rows DAQP gets from the start (those a parent
+        node's QP needed, :attr:`QpSolution.speed`) instead of adding them round by round;
+        the optimum does not depend on it.
         """
         if self.condensed is not None:
-            settled, sol = self._solve_daqp(lo, hi, y, relax, needed)
+            settled, sol = self._solve_daqp(lo, hi, y, relax, needed, speed)
             if settled and sol is not None:
                 self.counts["daqp"] += 1
                 return sol
@@ -137,6 +148,7 @@ class FixedFaceQP:
                 self.counts["daqp infeasible"] += 1
                 return None
             if settled:
+                self.work += WORK_CLARABEL_S
                 ref = self.fallback.solve(lo, hi, y, relax, needed)
                 self.counts["confirmed infeasible" if ref is None else "overruled"] += 1
                 if ref is not None:
@@ -144,6 +156,7 @@ class FixedFaceQP:
                 return None if ref is None else replace(ref, solved=(y, relax))
             LOG.info("fixed-face QP: DAQP did not settle it; Clarabel solves it")
         self.counts["clarabel"] += 1
+        self.work += WORK_CLARABEL_S
         sol = self.fallback.solve(lo, hi, y, relax, needed)
         return None if sol is None else replace(sol, solved=(y, relax))
 
@@ -157,7 +170,7 @@ class FixedFaceQP:
         ref = self.fallback.solve(lo, hi, *sol.solved)
         return sol if ref is None else replace(ref, y=sol.y, solved=sol.solved)
 
-    def _solve_daqp(self, lo, hi, y, relax, needed=None) -> tuple[bool, QpSolution | None]:
+    def _solve_daqp(self, lo, hi, y, relax, needed=None, speed=None) -> tuple[bool, QpSolution | None]:
         """``(settled, solution)``: settled is False where Clarabel must decide.
 
         The speed-polygon rows (800 of ~1200 on the paper mission, none active in most
@@ -179,14 +192,15 @@ class FixedFaceQP:
             return False, None
         lazy = k.lazy_rows(rows)  # rows_for keeps every general row but avoidance: all of them
         use = np.ones(len(rows), bool)
-        use[lazy] = False
+        use[lazy] = False if speed is None else np.isin(rows[lazy], speed)
         working = np.zeros(0, int), np.zeros(0, np.intc)
         for attempt in range(LAZY_ROUNDS + 1):
             if attempt == LAZY_ROUNDS:
                 use[:] = True
             sub = rows[use]
             a = a_all[use]
-            flag, w, lam, working = _daqp(k, a, sub, rlo[use], rhi[use], ctx, working)
+            flag, w, lam, working, iterations = _daqp(k, a, sub, rlo[use], rhi[use], ctx, working)
+            self.work += WORK_CALL_S + WORK_ROW_S * len(sub) + WORK_ITERATION_S * iterations
             if flag != DAQP_OPTIMAL:
                 return flag == DAQP_INFEASIBLE, None
             val = k.a_lazy @ w
@@ -201,13 +215,13 @@ class FixedFaceQP:
             return False, None
         y_out = np.ones_like(y) if relax else y
         return True, QpSolution(f, z[k.x_pos], u.reshape(k.u_shape), z[k.term], np.array(y_out, float),
-                                (y, relax), "daqp")
+                                (y, relax), "daqp", rows[lazy[use[lazy]]])
 
 
-def _daqp(k: "Condensed", a, rows, rlo, rhi, ctx, working) -> tuple[int, np.ndarray, np.ndarray, tuple]:
+def _daqp(k: "Condensed", a, rows, rlo, rhi, ctx, working) -> tuple[int, np.ndarray, np.ndarray, tuple, int]:
     """DAQP on ``rlo <= a w <= rhi`` (``a`` the rows ``rows``, :meth:`Condensed.matrix`), started from
     ``working = (rows, sense)`` (the previous round's working set; sense 1 upper, 3 lower).
-    Returns DAQP's flag, ``w``, the multipliers and the new working set."""
+    Returns DAQP's flag, ``w``, the multipliers, the new working set and its iterations."""
     sense = np.zeros(len(rows), dtype=np.intc)
     was, side = working
     at = np.searchsorted(rows, was)
@@ -215,10 +229,10 @@ def _daqp(k: "Condensed", a, rows, rlo, rhi, ctx, working) -> tuple[int, np.ndar
     sense[at[hit]] = side[hit]
     w, _, flag, info = daqp.solve(k.eye, ctx.lin_w, a, rhi, rlo, sense, **DAQP_SETTINGS)
     if flag != DAQP_OPTIMAL:
-        return flag, w, np.zeros(0), working
+        return flag, w, np.zeros(0), working, info["iterations"]
     lam = np.asarray(info["lam"])
     on = np.flatnonzero(lam)
-    return flag, w, lam, (rows[on], np.where(lam[on] > 0, 1, 3).astype(np.intc))
+    return flag, w, lam, (rows[on], np.where(lam[on] > 0, 1, 3).astype(np.intc)), info["iterations"]
 
 
 @dataclass(frozen=True, eq=False)
