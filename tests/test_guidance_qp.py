@@ -265,7 +265,8 @@ def test_bound_verdicts_of_infeasibility_are_confirmed(paper, monkeypatch):
     assert fast.solve(lo, hi, dead, bound=True) is None
     assert fast.counts["confirmed infeasible"] == 1 and fast.counts["daqp infeasible"] == 0
     assert fast.solve(lo, hi, dead) is None and fast.counts["daqp infeasible"] == 1
-    monkeypatch.setattr(FixedFaceQP, "_solve_daqp", lambda self, lo, hi, y, relax, needed=None, speed=None: (True, None))
+    monkeypatch.setattr(FixedFaceQP, "_solve_daqp", lambda self, lo, hi, y, relax, needed=None, speed=None:
+                        (True, None))
     assert fast.solve(lo, hi, live) is None  # a heuristic's QP: the verdict stands
     sol = fast.solve(lo, hi, live, bound=True)
     agree(sol, slow.solve(lo, hi, live))

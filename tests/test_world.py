@@ -178,8 +178,8 @@ def test_polygons_by_hand():
     big = p.inflated(2.0)
     np.testing.assert_allclose(big.vertices[0, :4], DIAMOND * (10 + 2 * np.sqrt(2)) / 10, atol=1e-12)
     np.testing.assert_allclose(big.area[0], 2 * (10 + 2 * np.sqrt(2)) ** 2, rtol=1e-12)
-    assert big.contains(np.array([[10 + 2 * np.sqrt(2) - 1e-9, 0.0], [10 + 2 * np.sqrt(2) + 1e-9, 0.0]]))[:, 0].tolist() \
-        == [True, False]
+    edge = 10 + 2 * np.sqrt(2)
+    assert big.contains(np.array([[edge - 1e-9, 0.0], [edge + 1e-9, 0.0]]))[:, 0].tolist() == [True, False]
     # the inflated pentagon's corners lie on both neighbouring edges pushed out by 2
     v, a, b = big.vertices[1, :5], p.normals[1, :5], p.offsets[1, :5]
     np.testing.assert_allclose(np.einsum("fd,fd->f", v, a), b + 2.0, atol=1e-12)
@@ -193,7 +193,7 @@ def test_convexity_and_orientation_checks():
     assert "clockwise" in convex_ccw(DIAMOND[::-1])
     assert "vertex 1" in convex_ccw(np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [1.0, 1.0]]))  # straight corner
     assert "at least 3" in convex_ccw(DIAMOND[:2]) and "repeats" in convex_ccw(np.vstack([DIAMOND, DIAMOND[-1:]]))
-    star = np.array([[np.cos(a), np.sin(a)] for a in np.arange(5) * 4 * np.pi / 5])  # a pentagram: turns left twice round
+    star = np.array([[np.cos(a), np.sin(a)] for a in np.arange(5) * 4 * np.pi / 5])  # a pentagram: twice round
     assert convex_ccw(star) == "winds round more than once"
 
 
