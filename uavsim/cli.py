@@ -680,13 +680,15 @@ def build_parser() -> argparse.ArgumentParser:
                     "every goal reachable within the horizon). Writes MISSION.toml and MISSION.world.toml "
                     "beside it; the mission names its world by that relative path.")
     p.add_argument("--seed", type=int, required=True, help="the world's seed: the same seed gives the same files")
-    p.add_argument("--kind", choices=("open", "city"), default="open",
+    p.add_argument("--kind", choices=("open", "city", "town"), default="open",
                    help="open: 0-15 walls, masts and boxes round 1-3 goals (default); city: a street grid of 0-150 "
-                        "buildings with plazas and courtyards as goals, dead ends, 1-16 targets")
+                        "buildings with plazas and courtyards as goals, dead ends, 1-16 targets; town: 0-150 convex "
+                        "buildings off the axes in irregular blocks, dead ends, goals 0.9-1.0 of the horizon's reach "
+                        "away, 1-16 targets")
     p.add_argument("--obstacles", type=int, required=True, metavar="K",
-                   help="number of cuboids: 0 to 15 (open), 0 to 150 (city)")
+                   help="number of obstacles: 0 to 15 (open), 0 to 150 (city, town)")
     p.add_argument("--targets", type=int, metavar="N",
-                   help="number of targets: 1 to 8 (open), 1 to 16 (city); default: drawn from the seed")
+                   help="number of targets: 1 to 8 (open), 1 to 16 (city, town); default: drawn from the seed")
     p.add_argument("--out", metavar="FILE", help="the mission file, or a folder for it (default "
                    "generated/<kind>-s<seed>-o<K>-t<N>.toml, kind 'gen' for open); the world goes beside it "
                    "as <name>.world.toml")

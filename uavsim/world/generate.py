@@ -41,7 +41,7 @@ import numpy as np
 from ..declare import specs
 from ..uav import FixedSensorsConfig, ManoeuvreConfig, PlannerConfig
 from ..writer import mission_text, value_text
-from . import city
+from . import city, town
 from .draw import Generated, Settings, draw_fixed_sensors, draw_target, draw_uav, ground_boxes
 from .model import Region2D
 from .routes import GoalField
@@ -168,7 +168,7 @@ def _obstacles(rng, layout: _Layout, k: int, goal_c, goal_s, margin, extent) -> 
 
 
 # --------------------------------------------------------------------------- the generator
-KINDS = {"open": (MAX_OBSTACLES, MAX_TARGETS), "city": (150, 16)}  # kind: most obstacles, most targets
+KINDS = {"open": (MAX_OBSTACLES, MAX_TARGETS), "city": (150, 16), "town": (150, 16)}  # most obstacles, targets
 
 
 def generate(rng: np.random.Generator | int, obstacles: int, targets: int | None = None,
@@ -179,7 +179,8 @@ def generate(rng: np.random.Generator | int, obstacles: int, targets: int | None
     ----------
     rng : a Generator, or a seed for ``numpy.random.default_rng``.
     obstacles : cuboids, 0..15 of the kind "open" (this module's docstring), 0..150
-        buildings of the kind "city" (:mod:`uavsim.world.city`).
+        buildings of the kind "city" (:mod:`uavsim.world.city`, street grids) or "town"
+        (:mod:`uavsim.world.town`, irregular blocks, convex buildings off the axes, far goals).
     targets : 1..8 ("open"), 1..16 ("city"); None: drawn from ``rng``.
     settings : the mission numbers (default: the paper's); name : default the kind's.
     """
@@ -195,7 +196,7 @@ def generate(rng: np.random.Generator | int, obstacles: int, targets: int | None
         targets = int(rng.integers(1, most_targets + 1))
     if not 1 <= targets <= most_targets:
         raise ValueError(f"targets must be between 1 and {most_targets}, got {targets}")
-    attempt = city.attempt if kind == "city" else _attempt
+    attempt = {"city": city.attempt, "town": town.attempt}.get(kind, _attempt)
     for _ in range(1000):  # a draw that cannot be completed starts again from a new area
         out = attempt(rng, obstacles, targets, settings)
         if out is not None:
