@@ -20,6 +20,8 @@ import platform
 import subprocess
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from multiprocessing import get_context
 from pathlib import Path
 
 from threadpoolctl import threadpool_info, threadpool_limits
@@ -101,6 +103,22 @@ def run(body, ap: argparse.ArgumentParser) -> None:
         write(Path(args.json), {"settings": vars(args), "wall_seconds": time.perf_counter() - t0,
                                 "figures": figures or {}, "printed": "".join(tee.parts)}, started)
         print(f"wrote {args.json}", file=sys.stderr)
+
+
+def run_cells(fn, todo: list[tuple], extra: tuple, workers: int, label: str) -> dict[tuple, dict]:
+    """``fn(*cell, *extra)`` for every cell of ``todo`` on ``workers`` spawned processes, each
+    reported as it finishes; a cell that raises is reported and left out, the others go on."""
+    done, t0 = {}, time.perf_counter()
+    with ProcessPoolExecutor(workers, mp_context=get_context("spawn")) as pool:
+        jobs = {pool.submit(fn, *c, *extra): c for c in todo}
+        for job in as_completed(jobs):
+            try:
+                done[jobs[job]] = job.result()
+            except Exception as err:
+                print(f"{label} {jobs[job]} failed: {type(err).__name__}: {err}", flush=True)
+                continue
+            print(f"{label} {jobs[job]} done ({time.perf_counter() - t0:.0f} s)", flush=True)
+    return done
 
 
 def markdown_table(head, rows) -> str:

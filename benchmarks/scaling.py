@@ -34,13 +34,11 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import replace
-from multiprocessing import get_context
 from pathlib import Path
 
 import numpy as np
-from harness import machine, markdown_table, write
+from harness import machine, markdown_table, run_cells, write
 
 from uavsim.campaign import one_blas_thread, run_trial, trial_seeds
 from uavsim.config import load_mission
@@ -77,7 +75,8 @@ def first_plans(m, guidance, best_known: float) -> list[dict]:
         goal = m.world.goals[t.goal]
         plan = guidance.plan(t.mean0, t.cov0, goal.centroid)
         row = {"status": plan.status, "objective": plan.objective, "gap": plan.gap, "seconds": plan.solve_seconds,
-               "unreachable": plan.unreachable, "collisions": collisions(m.world, plan) if plan.ok else 0,
+               "work": plan.work_seconds, "unreachable": plan.unreachable,
+               "collisions": collisions(m.world, plan, t.mean0)[0] if plan.ok else 0,
                "end_to_goal_m": goal_distance(m.world, t, plan.positions[-1, :2]) if plan.ok else None}
         if long is not None:
             ref = long.plan(t.mean0, t.cov0, goal.centroid)
@@ -89,25 +88,34 @@ def first_plans(m, guidance, best_known: float) -> list[dict]:
 
 
 def closed_loop(m, guidance, trials: int) -> dict:
-    plans, steps, hits, err2 = [], [], 0, []
+    """``trials`` trials of the optimized UAV and the same trials without measurements:
+    every guidance plan's status, gap and seconds, each step's and each reset's seconds,
+    collisions of the plans (from their starts, at every step P1 keeps clear) and of the
+    truth (every step from the start), and each target's time-averaged RMSE."""
+    plans, steps, resets, hits, truth_hits, err2 = [], [], [], 0, 0, []
     with one_blas_thread():
         for seed in trial_seeds(m.seed, trials):
             sim = Simulation(m, "optimized", guidance)
-            sim.reset(seed)
-            hits += sum(collisions(m.world, p) for p in sim.truth.plans)
+            t0 = time.perf_counter()
+            before = sim.reset(seed).mean
+            resets.append(time.perf_counter() - t0)
+            hits += sum(collisions(m.world, p, x)[0] for p, x in zip(sim.truth.plans, sim.truth.state))
             e = []
             for _ in range(m.steps):
                 info = sim.step()
                 steps.append(info.seconds["total"])
                 e.append(((info.mean[:, :2] - info.truth[:, :2]) ** 2).sum(axis=1))
+                hits += sum(collisions(m.world, p, x)[0] for p, x in zip(info.plans, before))
+                before = info.mean
                 for p in [*info.plans, *(h for half in sim.half_plans for h in half)]:
-                    hits += collisions(m.world, p)
                     plans.append((p.status, p.gap, p.solve_seconds))
+            truth_hits += sim.truth.collisions
             err2.append(e)
     base = [run_trial(m, BASELINE, k, seed, guidance).err2 for k, seed in enumerate(trial_seeds(m.seed, trials))]
     status, gap, secs = zip(*plans) if plans else ((), (), ())
     return {"plans": {"status": list(status), "gap": list(gap), "seconds": list(secs)}, "step_seconds": steps,
-            "collisions": hits, "rmse": np.sqrt(np.mean(err2, axis=0)).mean(axis=0).tolist(),
+            "reset_seconds": resets, "collisions": hits, "truth_collisions": truth_hits,
+            "rmse": np.sqrt(np.mean(err2, axis=0)).mean(axis=0).tolist(),
             "rmse_baseline": np.sqrt(np.mean(base, axis=0)).mean(axis=0).tolist()}
 
 
@@ -174,6 +182,8 @@ def summarize(cells: list[dict], setting: str) -> dict:
         "replans_fallback": int(np.sum(status == "fallback")), "replan_seconds": quantiles(secs),
         "step_seconds": quantiles(steps) | ({"mean": float(np.mean(steps))} if steps else {}),
         "collisions": int(sum(f["collisions"] for f in first) + sum(r.get("collisions", 0) for r in rows)),
+        "truth_collisions": int(sum(r.get("truth_collisions", 0) for r in rows)),
+        "reset_seconds": quantiles([s for r in rows for s in r.get("reset_seconds", [])]),
         "rmse_mean": float(rmse.mean()) if len(rmse) else None,
         "rmse_baseline_mean": float(base.mean()) if len(base) else None,
         "rmse_over_baseline": quantiles(rmse / base) if len(rmse) else {},
@@ -246,13 +256,8 @@ def main() -> None:
     kept = {c: kept_cell(cells_dir, *c, *cfg) for c in grid} if args.resume else {}
     todo = [c for c in grid if kept.get(c) is None]
     print(f"{len(grid) - len(todo)} cities kept, {len(todo)} to run", flush=True)
-    t0 = time.perf_counter()
-    with ProcessPoolExecutor(args.workers, mp_context=get_context("spawn")) as pool:
-        jobs = {pool.submit(run_cell, *c, str(cells_dir), *cfg): c for c in todo}
-        for job in as_completed(jobs):
-            kept[jobs[job]] = job.result()
-            print(f"city {jobs[job]} done ({time.perf_counter() - t0:.0f} s)", flush=True)
-    cells = [kept[c] for c in grid]
+    kept |= run_cells(run_cell, todo, (str(cells_dir), *cfg), args.workers, "city")
+    cells = [kept[c] for c in grid if kept.get(c) is not None]
     summary = [{"obstacles": k, "targets": n, "setting": x,
                 "summary": summarize([c for c in cells if (c["obstacles"], c["targets"]) == (k, n)], x)}
                for k in ks for n in ns for x in settings]

@@ -32,16 +32,17 @@ per target (median, p90, p99, max); closed-loop median and mean step seconds; ea
 target's time-averaged RMSE with its own guidance and with the truth's forces; whether
 each first plan ends in its goal region (and, if not, how far from it and its in-goal
 baseline); collisions of any plan with any obstacle by a point-and-segment check against
-the raw cuboids (world.in_obstacle and world.segment_blocked, independent of the
-solver's inflated faces), from the first step a plan is required to avoid (a belief
-inside an obstacle's margin is allowed out first).
+the raw obstacles (world.in_obstacle and world.segment_blocked, independent of the
+solver's inflated faces), from its start at every step P1 keeps clear (a belief inside
+an obstacle's margin is let out first: :attr:`uavsim.guidance.Plan.guarded_from`); and
+the truth's own steps that touch an obstacle, every step from the start
+(:attr:`uavsim.truth.Truth.collisions`).
 """
 
 from __future__ import annotations
 
 import json
 import os
-import re
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import replace
@@ -76,18 +77,15 @@ def write_world(seed: int, folder: Path) -> Path:
 
 
 # --------------------------------------------------------------------------- checks
-def first_enforced_step(plan) -> int:
-    """Index into plan.positions of the first point the plan must keep out of obstacles:
-    step 2 (index 1; step 1 is fixed by the start), or later where the start was inside a
-    margin ("avoided from step k")."""
-    found = re.search(r"avoided from step (\d+)", plan.message)
-    return max(1, int(found.group(1)) - 1) if found else 1
-
-
-def collisions(world, plan) -> int:
-    """Points inside, and segments through, any raw cuboid from the first enforced step."""
-    p = world.on_ground(plan.positions[first_enforced_step(plan):])
-    return int(world.in_obstacle(p).sum() + world.segment_blocked(p[:-1], p[1:]).sum())
+def collisions(world, plan, start) -> tuple[int, int]:
+    """``(guarded, unguarded)``: the plan's points inside, and segments through, any raw
+    obstacle, from its start ``(6,)`` on: at the steps P1 keeps clear (from
+    :attr:`uavsim.guidance.Plan.guarded_from`; nonzero only if the solver is wrong), and at
+    the steps before them, which a start inside a margin leaves unguarded."""
+    p = world.on_ground(np.vstack([start[:3], plan.positions]))
+    hit = np.r_[world.in_obstacle(p[1:]), False] | np.r_[world.segment_blocked(p[:-1], p[1:]), False]
+    k = plan.guarded_from - 1  # index into p of the first guarded point: step tau is p[tau]
+    return int(hit[k:].sum()), int(hit[:k].sum())
 
 
 def in_goal(world, target, plan) -> bool:
@@ -169,7 +167,7 @@ def run_world(seed: int, folder: str, trials: int, steps: int, budget: float | N
         for t in m.targets:  # first plans from the prior mean, against the route baseline
             plan = guidance.plan(t.mean0, t.cov0, m.world.goals[t.goal].centroid)
             route, ending_in = baselines(m, guidance, t, plan)
-            out["collisions"] += collisions(m.world, plan) if plan.ok else 0
+            out["collisions"] += collisions(m.world, plan, t.mean0)[0] if plan.ok else 0
             out["first"].append({"status": plan.status, "objective": plan.objective, "gap": plan.gap,
                                  "seconds": plan.solve_seconds, "in_goal": plan.ok and in_goal(m.world, t, plan),
                                  "end_to_goal_m": goal_distance(m.world, t, plan.positions[-1, :2]),
@@ -178,9 +176,10 @@ def run_world(seed: int, folder: str, trials: int, steps: int, budget: float | N
             err2 = []
             for seed_k in trial_seeds(m.seed, trials):
                 sim = Simulation(m, "optimized", guidance, oracle=oracle)
-                sim.reset(seed_k)
+                before = sim.reset(seed_k).mean
                 if not oracle:
-                    out["collisions"] += sum(collisions(m.world, plan) for plan in sim.truth.plans)
+                    out["collisions"] += sum(collisions(m.world, plan, x)[0]
+                                             for plan, x in zip(sim.truth.plans, sim.truth.state))
                 e = []
                 for _ in range(m.steps):
                     info = sim.step()
@@ -188,10 +187,14 @@ def run_world(seed: int, folder: str, trials: int, steps: int, budget: float | N
                     if oracle:
                         continue
                     out["step_seconds"].append(info.seconds["total"])
+                    for plan, x in zip(info.plans, before):  # the filter's plans, from the mean they were made from
+                        out["collisions"] += collisions(m.world, plan, x)[0]
+                    before = info.mean
                     for plan in [*info.plans, *(p for half in sim.half_plans for p in half)]:
-                        out["collisions"] += collisions(m.world, plan)
                         out["replans"].append({"status": plan.status, "gap": plan.gap, "seconds": plan.solve_seconds,
                                                "warm": info.t > 1})
+                if not oracle:
+                    out["truth_collisions"] = out.get("truth_collisions", 0) + sim.truth.collisions
                 err2.append(e)
             rmse = np.sqrt(np.mean(err2, axis=0)).mean(axis=0)  # (M,) time-averaged per target
             out["rmse_oracle" if oracle else "rmse"] = rmse.tolist()
@@ -257,6 +260,7 @@ def summarize(worlds: list[dict], gap: float) -> dict:
     steps = [s for w in worlds for s in w["step_seconds"]]
     return {
         "worlds": len(worlds), "collisions": int(sum(w["collisions"] for w in worlds)),
+        "truth_collisions": int(sum(w.get("truth_collisions", 0) for w in worlds)),
         "replans": shares(replans, gap),
         "warm_seconds": quantiles([r["seconds"] for r in replans if r["warm"]]),
         "cold_seconds": quantiles([f["seconds"] for f in first]),

@@ -26,8 +26,9 @@ def draw(ax, mission, heights: Normalize) -> None:
     the UAV's operating region (orange) and start (triangle)."""
     w, cmap = mission.world, colormaps["Greys"]
     ax.add_patch(Rectangle(w.area_lo[:2], *(w.area_hi - w.area_lo)[:2], fill=False))
-    for lo, hi in zip(w.obstacle_lo, w.obstacle_hi):
-        ax.add_patch(Rectangle(lo[:2], *(hi - lo)[:2], color=cmap(0.25 + 0.75 * heights(hi[2])), lw=0))
+    feet = w.footprints
+    for v, k, hi in zip(feet.vertices, feet.sides, w.obstacle_hi):
+        ax.add_patch(Polygon(v[:k], color=cmap(0.25 + 0.75 * heights(hi[2])), lw=0))
     for g in w.goals:
         ax.add_patch(Rectangle(g.lo, *(g.hi - g.lo), color="tab:red", alpha=0.5, lw=0))
     for t, goal in zip(mission.targets, mission.goals):

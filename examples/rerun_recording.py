@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
-from matplotlib.patches import Rectangle
+from matplotlib.patches import Polygon, Rectangle
 
 from uavsim.campaign import run_trial, trial_seeds
 from uavsim.config import load_mission
@@ -29,8 +29,8 @@ def top_down(infos, mission, path: Path) -> None:
     w = mission.world
     fig = Figure(figsize=(5.6, 5.6), layout="constrained")
     ax = fig.subplots()
-    for lo, hi in zip(w.obstacle_lo, w.obstacle_hi):
-        ax.add_patch(Rectangle(lo[:2], *(hi - lo)[:2], color="0.6"))
+    for v, k in zip(w.footprints.vertices, w.footprints.sides):
+        ax.add_patch(Polygon(v[:k], color="0.6"))
     for g in w.goals:
         ax.add_patch(Rectangle(g.lo, *(g.hi - g.lo), color="tab:red", alpha=0.4))
     truth = np.array([i.truth[:, :2] for i in infos])

@@ -107,7 +107,8 @@ def test_bad_command_lines(capsys, argv, fragment):
 def test_the_plan_of_work_is_printed_and_too_much_memory_refused(tmp_path, capsys, monkeypatch):
     """With 2 GiB free, 1e6 particles x 4 targets (about 1.9 GiB a worker by the measured
     model) on 2 workers is refused before any work, with the figure and what to change;
-    --workers above the core count is a warning, and a campaign that fits prints its plan."""
+    --workers above the core count is a warning, and a campaign that fits prints its plan
+    (1 trial of 1 step, and its no-information baseline: 2 trial-steps)."""
     import uavsim.campaign as campaign
 
     monkeypatch.setattr(campaign, "available_memory", lambda: 2.0 * 2**30)
@@ -117,7 +118,7 @@ def test_the_plan_of_work_is_printed_and_too_much_memory_refused(tmp_path, capsy
     assert main(["run", str(PAPER), "--trials", "1", "--steps", "1", "--out", str(tmp_path / "o"),
                  "--workers", str((os.cpu_count() or 1) + 1)]) == 0
     err = capsys.readouterr().err
-    assert "warning: --workers" in err and "plan of work: 1 trial-steps" in err
+    assert "warning: --workers" in err and "plan of work: 2 trial-steps" in err
 
 
 def test_a_solver_failure_is_an_outcome_not_a_crash(monkeypatch):

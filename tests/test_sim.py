@@ -148,15 +148,32 @@ def test_bad_command_lines_exit_2(tmp_path, capsys, argv, fragment):
     assert err.startswith("error: ") and fragment in err and len(err.splitlines()) == 1
 
 
-def test_failed_first_replan_coasts_and_is_logged():
-    """A belief with no plan (here lifted 5 m off the ground, which P1 refuses) and no
-    previous plan to fall back on: the filter predicts with zero force and the step logs
-    why, instead of raising."""
+def test_failed_first_replan_flies_the_prior_plan_and_is_logged():
+    """A belief with no plan (here lifted 5 m off the ground, which P1 refuses) at the
+    first step flies the plan from the prior mean (the first re-plans' warm start), and
+    the step logs why."""
     m = small(steps=1)
     from uavsim.sim import Simulation
 
     sim = Simulation(m, "optimized")
     sim.reset(1)
+    prior = sim.guidance.plan(m.targets[0].mean0, m.targets[0].cov0, m.goals[0])
+    sim.belief.pf.particles[0, :, 2] = 5.0
+    info = sim.step()
+    assert info.plans[0].status == "fallback" and np.array_equal(info.plans[0].controls, prior.controls)
+    assert any("T1 (estimate): re-plan error" in e and "flying the previous plan" in e for e in info.events)
+    assert np.all(np.isfinite(info.mean))
+
+
+def test_failed_replan_without_a_plan_to_fly_coasts_and_is_logged():
+    """No plan from the belief and none from the prior to fall back on: the filter
+    predicts with zero force and the step logs why, instead of raising."""
+    m = small(steps=1)
+    from uavsim.sim import Simulation
+
+    sim = Simulation(m, "optimized")
+    sim.reset(1)
+    sim._prior_plan = lambda j: None  # as where the prior mean has no plan
     sim.belief.pf.particles[0, :, 2] = 5.0
     info = sim.step()
     assert info.plans[0].status == "fallback" and np.all(info.plans[0].controls == 0)

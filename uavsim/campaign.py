@@ -110,9 +110,8 @@ class trial_seeds:  # noqa: N801 (a lazy list)
 # interpreter and libraries per process.
 BYTES_PER_PARTICLE, BYTES_PER_SET_ENTRY, BYTES_PER_HORIZON2, BYTES_PER_PROCESS = 450, 10, 4600, 150e6
 SECONDS_PER_PARTICLE_STEP = 1.5e-6  # one target-particle through a step, paper mission, one core
-# guidance per plan (a target has 1 + 2 (plan_clusters = 2) plans a step): a first plan and
-# a re-plan, medians of the generated suites (docs/guidance-cities.md), one core
-SECONDS_PER_FIRST_PLAN, SECONDS_PER_REPLAN = 0.1, 0.005
+# The sensitivity of a planned truth: 8 QPs with the faces fixed, about a re-plan's cost.
+SENSITIVITY_REPLANS = 1.0
 
 
 @dataclass(frozen=True)
@@ -130,9 +129,12 @@ class Work:
         return self.bytes_per_worker * self.workers
 
     def text(self) -> str:
-        free = f" of {self.available / 2**30:.1f} GiB available" if self.available else ""
         return (f"plan of work: {self.trial_steps:,} trial-steps, about {_duration(self.cpu_seconds)} of CPU; "
-                f"memory about {self.bytes_per_worker / 2**20:,.0f} MiB x {self.workers} worker(s){free}")
+                f"{self.memory_text()}")
+
+    def memory_text(self) -> str:
+        free = f" of {self.available / 2**30:.1f} GiB available" if self.available else ""
+        return f"memory about {self.bytes_per_worker / 2**20:,.0f} MiB x {self.workers} worker(s){free}"
 
 
 def _duration(seconds: float) -> str:
@@ -152,21 +154,65 @@ def available_memory() -> float | None:
     return None
 
 
-def plan_of_work(mission: Mission, workers: int) -> Work:
+def guidance_seconds(mission: Mission, guidance: Guidance) -> tuple[float, float]:
+    """``(first, replan)``: seconds of a first plan and of a re-plan, each target's mean,
+    measured on this mission's world: every target's plan from its prior mean (which
+    every trial makes first, and ``guidance`` keeps) and its re-plan one step on,
+    warm-started from it.  A world's guidance costs what its streets make it cost (from
+    milliseconds on the paper's world to the whole budget in a town): measured, not
+    modelled."""
+    first, again = [], []
+    with one_blas_thread():
+        for t, goal in zip(mission.targets, mission.goals):
+            t0 = time.perf_counter()
+            plan = guidance.plan(t.mean0, t.cov0, goal)
+            first.append(time.perf_counter() - t0)
+            if plan.ok:
+                t0 = time.perf_counter()
+                guidance.plan(plan.means[0], plan.covs[0], goal, warm=plan, step=1, shift=1)
+                again.append(time.perf_counter() - t0)
+    return float(np.mean(first)), float(np.mean(again)) if again else mission.guidance.replan_budget
+
+
+def plan_of_work(mission: Mission, workers: int, guidance: tuple[float, float] | None = None,
+                 campaigns: int = 1) -> Work:
     """The campaign's size before it runs: memory per worker from the particles x targets
     arrays (and the largest scan set the clutter rate makes likely), the guidance
     programs and the interpreter; CPU time from trials x steps x targets x particles and
-    the plans (an order of magnitude: the guidance's cost depends on the world)."""
+    the plans: ``guidance = (first, replan)`` seconds (:func:`guidance_seconds`; without
+    them, the budgets: at most that).  Each process makes each target's first plan from
+    the prior mean once; each trial makes its truth's plans (warm-started: re-plans) and
+    their sensitivity, and every step one re-plan per target and cluster.  ``campaigns``:
+    how many campaigns of these trials run (planners and the no-information baseline,
+    which plans the same)."""
     m, n = len(mission.targets), mission.filter.particles if mission.filter.kind == "particle" else 1
     lam = mission.sensor.clutter_rate
     k = 2 + lam + 4 * np.sqrt(lam + 1)  # a scan's set size rarely exceeds this
     per_worker = (m * n * (BYTES_PER_PARTICLE + BYTES_PER_SET_ENTRY * k)
                   + BYTES_PER_HORIZON2 * mission.guidance.horizon**2 + BYTES_PER_PROCESS)
-    trial_steps = mission.trials * mission.steps
-    plans = m * (1 + 2 * (mission.filter.plan_clusters > 1))
-    cpu = (trial_steps * m * max(n, 1000) * SECONDS_PER_PARTICLE_STEP
-           + mission.trials * plans * (SECONDS_PER_FIRST_PLAN + mission.steps * SECONDS_PER_REPLAN))
-    return Work(trial_steps, float(per_worker), max(1, min(workers, mission.trials)), available_memory(), cpu)
+    trial_steps = campaigns * mission.trials * mission.steps
+    workers = max(1, min(workers, mission.trials))
+    first, replan = guidance or (mission.guidance.time_limit, mission.guidance.replan_budget)
+    plans = 1 + 2 * (mission.filter.plan_clusters > 1)
+    truth = (mission.steps if mission.truth == "stochastic"  # re-planned every step
+             else 1 + SENSITIVITY_REPLANS + mission.steps // mission.guidance.horizon)  # and past each horizon
+    # the first plans: made here (guidance_seconds) and kept for the campaigns run here, or
+    # again by every worker process of every campaign
+    firsts = 1 if workers == 1 else 1 + campaigns * workers
+    cpu = (trial_steps * m * max(n, 1000) * SECONDS_PER_PARTICLE_STEP + firsts * m * first
+           + campaigns * mission.trials * m * replan * (truth + mission.steps * plans))
+    return Work(trial_steps, float(per_worker), workers, available_memory(), cpu)
+
+
+def kept_guidance(mission: Mission) -> Guidance:
+    """This process's guidance for the mission's world, dynamics and settings, built once
+    (and the plans from the priors it keeps made once): the last two are kept."""
+    key = fingerprint(replace(mission, trials=1, steps=1, seed=0))
+    if key not in _GUIDANCE:
+        while len(_GUIDANCE) >= 2:
+            _GUIDANCE.pop(next(iter(_GUIDANCE)))
+        _GUIDANCE[key] = Guidance(mission.world, mission.dynamics, mission.guidance)
+    return _GUIDANCE[key]
 
 
 # --------------------------------------------------------------------------- one trial
@@ -209,15 +255,12 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
                        np.array(sens), sim.truth.collisions)
 
 
-_GUIDANCE: dict[str, Guidance] = {}  # per worker process: build each mission's models once
+_GUIDANCE: dict[str, Guidance] = {}  # per process: build each mission's models once (kept_guidance)
 
 
 def _trial_task(mission: Mission, planner: str, index: int, seed: np.random.SeedSequence) -> TrialResult:
     """What a worker runs: one trial, reusing this process's guidance for the mission."""
-    key = fingerprint(mission, planner)
-    if key not in _GUIDANCE:
-        _GUIDANCE[key] = Guidance(mission.world, mission.dynamics, mission.guidance)
-    return run_trial(mission, planner, index, seed, _GUIDANCE[key], on_step=_count_step)
+    return run_trial(mission, planner, index, seed, kept_guidance(mission), on_step=_count_step)
 
 
 _STEPS = None  # a worker's handle on the campaign's shared step counter (_start_worker)
@@ -537,7 +580,7 @@ def run_campaign(mission: Mission, planner: str, out: Path | None = None, worker
     aborted = True
     try:
         if executor is None:
-            guidance = Guidance(mission.world, mission.dynamics, mission.guidance) if todo else None
+            guidance = kept_guidance(mission) if todo else None
             step = (lambda info: info.t and progress.step()) if progress and hasattr(progress, "step") else None
             for k in todo:
                 finished(run_trial(mission, planner, k, seeds[k], guidance, on_step=step))

@@ -21,6 +21,7 @@ import sys
 import tempfile
 import textwrap
 import threading
+import time
 import warnings
 from dataclasses import replace
 from pathlib import Path
@@ -203,7 +204,7 @@ def _workers(args: argparse.Namespace) -> int:
 def _check_work(args: argparse.Namespace, mission: Mission, planners: list[str]) -> None:
     """Before any work: each planner can run this mission (its settings fit the world),
     then the plan of work, printed; refused when it needs more memory than the machine has."""
-    from .campaign import plan_of_work
+    from .campaign import guidance_seconds, kept_guidance, plan_of_work
     from .uav import make_policy
 
     cores = os.cpu_count() or 1
@@ -218,13 +219,20 @@ def _check_work(args: argparse.Namespace, mission: Mission, planners: list[str])
         with mission_errors(mission.path):
             make_policy(planner, mission)
 
-    work = plan_of_work(mission, 1 if args.scheduler else _workers(args))
+    workers, campaigns = 1 if args.scheduler else _workers(args), len(set(planners) | {BASELINE})
+    work = plan_of_work(mission, workers, campaigns=campaigns)  # each planner's, and their trials' baseline
     if work.available is not None and work.total_bytes > 0.9 * work.available:
-        raise UsageError(f"{work.text()}: needs about {work.total_bytes / 2**30:.1f} GiB; lower filter.particles "
-                         f"({mission.filter.particles} x {len(mission.targets)} targets), guidance.horizon or "
-                         "--workers")
+        raise UsageError(f"plan of work: {work.memory_text()}: needs about {work.total_bytes / 2**30:.1f} GiB; lower "
+                         f"filter.particles ({mission.filter.particles} x {len(mission.targets)} targets), "
+                         "guidance.horizon or --workers")
+    t0 = time.perf_counter()
+    with mission_errors(mission.path):
+        measured = guidance_seconds(mission, kept_guidance(mission))
+    probe = time.perf_counter() - t0
+    work = plan_of_work(mission, workers, measured, campaigns)
     if not args.quiet:
-        print(work.text(), file=sys.stderr)
+        print(f"{work.text()} (guidance measured on this world in {probe:.1f} s: a first plan {measured[0]:.2g} s, "
+              f"a re-plan {measured[1]:.2g} s a target)", file=sys.stderr)
 
 
 def _campaign(args: argparse.Namespace, mission: Mission, planner: str, out: Path, record=None) -> dict:

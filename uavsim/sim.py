@@ -4,7 +4,8 @@ Each step t -> t+1:
 
 1. **truth forces**: the true targets' controls (:mod:`.truth`);
 2. **guidance**: every target's P1 is re-solved from its posterior ``N(mu_t, Sigma_t)``
-   (Eq. 8c, rolling horizon), warm-started from its previous plan; a failed re-plan
+   (Eq. 8c, rolling horizon), warm-started from its previous plan (at the first step
+   from its plan at the prior mean, the same in every trial); a failed re-plan
    falls back to the previous plan shifted by one step (an event is logged);
 3. **belief predict** (Eq. 9a) with each plan's first control.  With ``[filter]
    plan_clusters = 2`` each particle cloud is split in two (:func:`.belief.particle.halves`)
@@ -113,8 +114,10 @@ class Simulation:
             controls = self._truth_controls
         else:
             mean, cov = self.belief.moments()
-            previous = self.plans
-            self.plans = [self._replan(j, mean[j], cov[j], previous[j], events) for j in range(len(mean))]
+            previous, shift = self.plans, 1
+            if self.t == 0:  # the first re-plans start from the plans at the priors (made once per process)
+                previous, shift = [self._prior_plan(j) for j in range(len(mean))], 0
+            self.plans = [self._replan(j, mean[j], cov[j], previous[j], events, shift=shift) for j in range(len(mean))]
             controls = np.array([p.controls[0] for p in self.plans])
             if m.filter.plan_clusters == 2:
                 controls, split = self._half_controls(controls, previous, events)
@@ -159,6 +162,13 @@ class Simulation:
         if plan.eventful:
             events.append(f"{self.m.targets[j].name} ({who}): {plan.message}")
         return plan
+
+    def _prior_plan(self, j: int) -> Plan | None:
+        """Target j's plan from its prior mean, the same in every trial (the guidance keeps
+        it), None if there is none."""
+        t = self.m.targets[j]
+        plan = self.guidance.plan(t.mean0, t.cov0, self.m.goals[j])
+        return plan if plan.ok else None
 
     def _half_controls(self, controls: np.ndarray, previous: list[Plan | None], events: list[str]
                        ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:

@@ -9,8 +9,9 @@ has none); it then moves by the mission's truth mode:
 
 * ``planned`` (the paper, Sec. VI-B): along the noise-free guidance plan computed from
   that drawn start at t = 1 (re-planned noise-free from its end if the mission outlasts
-  the horizon).  The plan is warm-started from the plan at the prior's mean (the same in
-  every trial, so made once per process), and so spends ``replan_budget_s``;
+  the horizon).  The plan is warm-started from the plan at the prior (the same in every
+  trial, so made once per process, and the start of the filter's first re-plans too), and
+  so spends ``replan_budget_s``;
 * ``stochastic``: re-planned from the true state every step, moving by Eq. (1) with
   process noise drawn again (at most :data:`NOISE_DRAWS` times) where a draw would carry
   the target into a building: a truncated Gaussian, so that the truth never enters one.
@@ -106,7 +107,8 @@ class Truth:
         can turn, or towards a wall it cannot stop short of, has none), noted as an event."""
         zero, goal = np.zeros((6, 6)), self.m.goals[j]
         tries = self._candidates[j][:PLAN_TRIES] if step == 0 else self.state[j:j + 1]
-        warm = self.guidance.plan(self.m.targets[j].mean0, zero, goal) if step == 0 else None
+        prior = self.m.targets[j]  # the filter's first re-plans start from the same plan
+        warm = self.guidance.plan(prior.mean0, prior.cov0, goal) if step == 0 else None
         warm = warm if warm is not None and warm.ok else None
         failed: list[Plan] = []
         for x in tries:
