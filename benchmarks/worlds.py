@@ -79,13 +79,18 @@ def write_world(seed: int, folder: Path) -> Path:
 # --------------------------------------------------------------------------- checks
 def collisions(world, plan, start) -> tuple[int, int]:
     """``(guarded, unguarded)``: the plan's points inside, and segments through, any raw
-    obstacle, from its start ``(6,)`` on: at the steps P1 keeps clear (from
-    :attr:`uavsim.guidance.Plan.guarded_from`; nonzero only if the solver is wrong), and at
-    the steps before them, which a start inside a margin leaves unguarded."""
+    obstacle, from its start ``(6,)`` on: the points P1 keeps clear (from
+    :attr:`uavsim.guidance.Plan.guarded_from`) and the segments between two of them
+    (nonzero only if the solver is wrong: two points outside an obstacle inflated by
+    ``v_max dt / 2 + clearance`` at most ``v_max dt`` apart cannot straddle it), and the
+    rest, which a start inside a margin leaves unguarded (step 1 is ``p + v dt`` whatever
+    the force, so the segment into the first guarded point is unguarded too)."""
     p = world.on_ground(np.vstack([start[:3], plan.positions]))
-    hit = np.r_[world.in_obstacle(p[1:]), False] | np.r_[world.segment_blocked(p[:-1], p[1:]), False]
-    k = plan.guarded_from - 1  # index into p of the first guarded point: step tau is p[tau]
-    return int(hit[k:].sum()), int(hit[:k].sum())
+    point = np.r_[False, world.in_obstacle(p[1:])]  # point[tau]: step tau
+    seg = np.r_[False, world.segment_blocked(p[:-1], p[1:])]  # seg[tau]: from step tau - 1 to tau
+    g = plan.guarded_from
+    guarded = int(point[g:].sum() + seg[g + 1:].sum())
+    return guarded, int(point.sum() + seg.sum()) - guarded
 
 
 def in_goal(world, target, plan) -> bool:
