@@ -17,7 +17,10 @@ import json
 import sys
 from pathlib import Path
 
+import budget
 import numpy as np
+import osm_import
+import towns
 from harness import ROOT, fill, parser, provenance, run
 from harness import markdown_table as md
 from tma_studies import tables_huang2021, tables_li2022, tables_oh2021, tables_oliva2021
@@ -309,6 +312,29 @@ def tables_memory(data: dict | None) -> dict[str, str]:
                                rows) + "\n\n" + provenance(data)}
 
 
+def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None,
+                 runs: dict | None) -> dict[str, str]:
+    """Real and generated towns: the importer's cover (``osm_import.py``), budgets against
+    the wall clock (``budget.py``), the plan of work's CPU (``resources.py``) and guidance
+    and the closed loop in towns (``towns.py``)."""
+    out = {}
+    if imported is not None:
+        out["towns-import"] = osm_import.table(imported["figures"]["crops"]) + "\n\n" + provenance(imported)
+    if budgets is not None:
+        out["towns-budget"] = budget.table(budgets["figures"]["missions"]) + "\n\n" + provenance(budgets)
+    if resources is not None and resources.get("cpu"):
+        rows = [[r["mission"], f"{r['overrides']['trials']} x {r['overrides']['steps']}", f"{r['model']:.0f}",
+                 f"{r['used']:.0f}", f"{r['ratio']:.2f}"] for r in resources["cpu"]]
+        out["towns-cpu"] = md(["mission", "trials x steps", "plan of work, CPU s", "used, CPU s", "ratio"],
+                              rows) + "\n\n" + provenance(resources)
+    if runs is not None:
+        s = runs["settings"]
+        out["towns"] = (towns.table(runs["cells"]) + f"\n\nSetting `{s['setting']}`; {s['trials']} closed-loop "
+                        f"trials of {s['steps']} steps a world, {s['truth_trials']} truth-alone trials. "
+                        + provenance(runs))
+    return out
+
+
 def pages() -> dict[Path, dict[str, str]]:
     studies = _load(DATA / "tma-studies.json")
     cities = {f"cities-{k}": _load(DATA / f"{f}.json") for k, f in (("scaling", "scaling"),
@@ -329,6 +355,8 @@ def pages() -> dict[Path, dict[str, str]]:
                                           **tables_city_targets(cities["cities-scaling"],
                                                                 cities["cities-first-plans"], list(cities.values()))},
             DOCS / "results" / "worlds.md": tables_worlds(_load(DATA / "worlds.json")),
+            DOCS / "results" / "towns.md": tables_towns(_load(DATA / "osm-import.json"), _load(DATA / "budget.json"),
+                                                        _load(DATA / "plan-of-work.json"), _load(DATA / "towns.json")),
             DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
                                                 **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
                                                                    "lookahead-clusters2")},

@@ -1,7 +1,7 @@
 """Guidance and the closed loop in towns: crops of central Helsinki imported from OpenStreetMap, generated towns.
 
-    python benchmarks/towns.py [--worlds osm-small,osm-medium,...,grid,osm-medium:16,town-100:16]
-                               [--targets 8] [--trials 2] [--steps 30] [--truth-trials 100]
+    python benchmarks/towns.py [--worlds osm-small,osm-medium,...,grid,osm-medium:16,town-100:16,city-100:16]
+                               [--targets 8] [--trials 2] [--steps 20] [--truth-trials 30]
                                [--setting c1-soft] [--workers 2] [--out runs/towns] [--resume]
     python benchmarks/towns.py --report runs/towns/towns.json     # the docs' markdown table
 
@@ -9,7 +9,8 @@ A world is ``osm-CROP`` (a crop of worlds/osm/helsinki-centre.osm.pbf, ODbL, thr
 ``uavsim world import --targets N --seed 1 --reach 0.1,0.9``: ``small`` 50 buildings, ``station`` 86,
 ``helsinki`` 133, ``medium`` 150, ``large`` 400; see ``benchmarks/osm_import.py``),
 ``town-K`` (``uavsim world generate --kind town --obstacles K --targets N``: irregular blocks,
-buildings off the axes, goals 0.9-1.0 of the horizon's reach away) or ``grid`` (the
+buildings off the axes, goals 0.9-1.0 of the horizon's reach away), ``city-K`` (``--kind
+city``: the street grids, goals at most 0.6 of the reach away) or ``grid`` (the
 street grid drawn by hand, benchmarks/towns/grid.toml, with its own six targets).  Each
 runs with ``--setting`` (``cC-TERM``: ``filter.plan_clusters = C``, ``guidance.terminal =
 TERM``) and the mission's own budgets and gap, and measures (:mod:`benchmarks.scaling`):
@@ -61,8 +62,8 @@ def mission_file(world: str, n: int, folder: Path) -> Path:
         code = cli(["world", "import", str(PBF), "--bbox", box, "--targets", str(n), "--seed", "1", "--reach",
                     "0.1,0.9", "--out", str(out), "--force"])
     else:
-        k = int(world.split("-")[1])
-        code = cli(["world", "generate", "--kind", "town", "--seed", str(7919 * k + 101 * n), "--obstacles", str(k),
+        kind, k = world.split("-")[0], int(world.split("-")[1])
+        code = cli(["world", "generate", "--kind", kind, "--seed", str(7919 * k + 101 * n), "--obstacles", str(k),
                     "--targets", str(n), "--out", str(out), "--force"])
     if code:
         raise RuntimeError(f"could not make {world} with {n} targets")
@@ -189,14 +190,14 @@ def world_cells(worlds: str, targets: str) -> list[tuple[str, int]]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--worlds", default="osm-small,osm-medium,osm-large,town-50,town-100,town-150,grid,"
-                                        "osm-medium:16,town-100:16",
+    ap.add_argument("--worlds", default="osm-small,osm-medium,osm-large,town-50,town-100,grid,osm-medium:16,"
+                                        "town-100:16,city-100:16",
                     help="NAME (with --targets) or NAME:N, comma-separated")
     ap.add_argument("--targets", default="8", help="comma-separated target counts (the grid keeps its six)")
     ap.add_argument("--setting", default="c1-soft", help="cC-TERM: plan_clusters C, terminal TERM")
     ap.add_argument("--trials", type=int, default=2)
-    ap.add_argument("--steps", type=int, default=30)
-    ap.add_argument("--truth-trials", type=int, default=100)
+    ap.add_argument("--steps", type=int, default=20)
+    ap.add_argument("--truth-trials", type=int, default=30)
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default="runs/towns")
     ap.add_argument("--resume", action="store_true")

@@ -8,7 +8,7 @@ a :class:`Plan`.
 
 **Budgets.**  A first plan (no previous plan to start from) may spend
 ``time_limit_s``; a re-plan ``replan_budget_s``.  Both are seconds of the reference
-machine (this project's 2-core AMD EPYC): each fixed-face QP is charged what it costs
+machine (the 2-core Intel Xeon of docs/data/budget.json): each fixed-face QP is charged what it costs
 there, from what it did (its DAQP calls, rows and iterations, its Clarabel solves:
 :data:`.qp.WORK_CALL_S` and the rest) and the search's work round it
 (:data:`.oa.NODE_SECONDS`), not from the clock, so a plan depends on its inputs only:

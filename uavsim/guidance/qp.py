@@ -65,7 +65,7 @@ DAQP_SETTINGS = dict(primal_tol=1e-9, iter_limit=2000)
 DAQP_OPTIMAL, DAQP_INFEASIBLE = 1, -1
 LAZY_ROUNDS = 4  # rounds of adding violated speed rows before DAQP gets every row
 LAZY_TOL = 1e-8  # a speed row violated by more (m/s) is added
-# what a QP costs on the reference machine (2-core AMD EPYC), from what it did, not from the clock:
+# what a QP costs on the reference machine (2-core Intel Xeon), from what it did, not from the clock:
 # per DAQP call, per row it was given and per iteration, and per Clarabel solve
 # (benchmarks/budget.py --fit; docs/data/budget.json)
 WORK_CALL_S, WORK_ROW_S, WORK_ITERATION_S, WORK_CLARABEL_S = 0.0, 2.3e-6, 2.2e-6, 10e-3
