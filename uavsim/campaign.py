@@ -653,6 +653,7 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "pcrlb_pos_per_target": None if bound is None else bound.pos_per_target.tolist(),
         "time_avg_pcrlb": None if bound is None else float(bound.pos.mean()),
         "pcrlb_q2": None if bound is None else bound.q2,
+        **_bound_errors(bound),
         "mean_trace": np.stack([r.trace for r in results]).mean(axis=0).T.tolist(),
         "nees": {"pos": metrics.consistency(np.stack([r.nees_pos for r in results]), len(metrics.POS)),
                  "state": metrics.consistency(np.stack([r.nees_state for r in results]), len(metrics.STATE))},
@@ -662,6 +663,14 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "timing": {k: float(np.median(secs[:, i])) for i, k in enumerate(STAGES)},
         "wall_seconds": wall,
     }
+
+
+def _bound_errors(bound: Bound | None) -> dict:
+    """The PCRLB's Monte-Carlo standard errors (jackknife over the trials): per step of
+    ``pcrlb_pos`` and of ``time_avg_pcrlb``; None with one trial or no bound."""
+    se = None if bound is None else bound.standard_error()
+    return {"pcrlb_pos_se": None if se is None else se.tolist(),
+            "time_avg_pcrlb_se": None if se is None else float(bound.standard_error(lambda p: p.mean(axis=(-2, -1))))}
 
 
 def accuracy_floor(mission: Mission, sensor, results: list[TrialResult]) -> Bound | None:

@@ -296,6 +296,15 @@ def _study(args: argparse.Namespace, mission: Mission, planner: str, out: Path, 
     return with_baseline(summary, _baseline(args, mission, base_out, cache))
 
 
+def _bound_text(s: dict) -> str:
+    """What the printed PCRLB bounds, and how well the trials pin it down."""
+    what = f"information reduction factor {s['pcrlb_q2']:.3f}"
+    if s.get("time_avg_pcrlb_se") is None:
+        return f"bounds the RMSE over the prior, estimated from one trial's path only ({what})"
+    return (f"bounds the RMSE over the prior, not each path's; Monte-Carlo s.e. {s['time_avg_pcrlb_se']:.2f} / "
+            f"{s['pcrlb_pos_se'][-1]:.2f} from {s['trials']} trials ({what})")
+
+
 def _print_summary(s: dict) -> None:
     clutter = "no sensor" if s["clutter_rate"] is None else f"clutter rate {s['clutter_rate']:g}"
     print(f"planner {s['planner']}: {s['trials']} trials x {s['steps']} steps, seed {s['seed']}, "
@@ -305,8 +314,7 @@ def _print_summary(s: dict) -> None:
         print(f"  {name:<8}{np.mean(per):>17.2f}{per[-1]:>14.2f}")
     print(f"  {'all':<8}{s['time_avg_rmse']:>17.2f}{s['rmse'][-1]:>14.2f}")
     if s["pcrlb_pos"] is not None:
-        print(f"  {'PCRLB':<8}{s['time_avg_pcrlb']:>17.2f}{s['pcrlb_pos'][-1]:>14.2f}   the floor of any estimator "
-              f"on these paths (information reduction factor {s['pcrlb_q2']:.3f})")
+        print(f"  {'PCRLB':<8}{s['time_avg_pcrlb']:>17.2f}{s['pcrlb_pos'][-1]:>14.2f}   {_bound_text(s)}")
     if "baseline" in s:
         b = s["baseline"]
         print(f"  {'no info':<8}{b['time_avg_rmse']:>17.2f}{b['rmse'][-1]:>14.2f}   ratio {b['ratio']:.3f} "

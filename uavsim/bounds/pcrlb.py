@@ -321,11 +321,25 @@ class Bound:
     cov: np.ndarray
     q2: float
     trials: int
+    left_out: np.ndarray | None = None  # (trials, M, T) pos_per_target of the trials less each one
 
     @property
     def pos_per_target(self) -> np.ndarray:
         """(M, T) bound on the (x, y) RMSE, laid out like a summary's ``rmse_per_target``."""
         return np.sqrt(np.trace(self.cov[:, :, POS, POS], axis1=2, axis2=3)).T
+
+    def standard_error(self, stat=lambda pos: pos.mean(axis=-2)):
+        """The jackknife standard error of ``stat(pos_per_target)`` (default: the mean over
+        targets, ``(T,)`` like :attr:`pos`) over the campaign's trials, or None with fewer
+        than two trials or no leave-one-out bounds.  The bound's expectations are averages
+        over the trials, so the bound itself is a Monte-Carlo estimate:
+        ``se^2 = (n - 1) / n sum_i (stat_(i) - mean_i stat_(i))^2`` with ``stat_(i)`` from
+        the trials less trial i [Efron1981]."""
+        if self.left_out is None or self.trials < 2:
+            return None
+        s = np.asarray(stat(self.left_out))  # (trials, ...)
+        n = self.trials
+        return np.sqrt((n - 1) / n * ((s - s.mean(axis=0)) ** 2).sum(axis=0))
 
     @property
     def pos(self) -> np.ndarray:
@@ -422,8 +436,38 @@ def pcrlb_planned(sensitivity: np.ndarray, truth: np.ndarray, observers: np.ndar
     q2 = information_reduction_factor(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
     w = scan_information(truth, observers, sensor.sigma, q2)  # (trials, T, M, 2, 2)
     gp = g[..., HORIZONTAL_POS, :]  # (trials, T, M, 2, 4): d position / d x_0
-    info = np.einsum("ntmia,ntmij,ntmjb->tmab", gp, w, gp) / len(g)  # E[G^T E^T W E G], (T, M, 4, 4)
-    j = np.linalg.inv(cov0) + np.cumsum(info, axis=0)
-    mean_g = g.mean(axis=0)  # (T, M, 4, 4)
+    info = np.einsum("ntmia,ntmij,ntmjb->ntmab", gp, w, gp)  # G^T E^T W E G per trial, (trials, T, M, 4, 4)
+    prior_info, n = np.linalg.inv(cov0), len(g)
+    cov = _van_trees(prior_info, info.mean(axis=0), g.mean(axis=0))
+    left_out = None
+    if n > 1:  # the same bound from the trials less each one, LOO_CHUNK trials at a time
+        sum_info, sum_g = info.sum(axis=0), g.sum(axis=0)
+        left_out = np.concatenate([_pos(_van_trees(prior_info, (sum_info - info[i:i + LOO_CHUNK]) / (n - 1),
+                                                   (sum_g - g[i:i + LOO_CHUNK]) / (n - 1)))
+                                   for i in range(0, n, LOO_CHUNK)])
+    return Bound(cov=cov, q2=q2, trials=n, left_out=left_out)
+
+
+LOO_CHUNK = 64  # leave-one-out bounds computed together (memory: 64 x T x M x 4 x 4 floats)
+
+
+def _van_trees(prior_info: np.ndarray, info: np.ndarray, mean_g: np.ndarray) -> np.ndarray:
+    """``E[G_k] J_k^-1 E[G_k]^T`` with ``J_k = Sigma_0^-1 + sum_{j <= k} E[G_j^T E^T W_j E G_j]``.
+
+    Parameters
+    ----------
+    prior_info : (M, 4, 4) ``Sigma_0^-1``; info : (..., T, M, 4, 4) the expected scan
+    information in ``x_0`` at each step; mean_g : (..., T, M, 4, 4) ``E[G_k]``.
+
+    Returns
+    -------
+    (..., T, M, 4, 4), symmetric.
+    """
+    j = prior_info + np.cumsum(info, axis=-4)
     cov = mean_g @ np.linalg.solve(j, np.swapaxes(mean_g, -1, -2))
-    return Bound(cov=0.5 * (cov + np.swapaxes(cov, -1, -2)), q2=q2, trials=len(g))
+    return 0.5 * (cov + np.swapaxes(cov, -1, -2))
+
+
+def _pos(cov: np.ndarray) -> np.ndarray:
+    """(n, T, M, 4, 4) bounds -> (n, M, T) position RMSE bounds (as ``Bound.pos_per_target``)."""
+    return np.swapaxes(np.sqrt(np.trace(cov[..., POS, POS], axis1=-2, axis2=-1)), -1, -2)
