@@ -93,3 +93,17 @@ def test_the_summary_counts_truth_collisions_from_the_first_step(tmp_path, truth
                 steps=10, trials=2)
     s = run_campaign(m, "baseline")
     assert s["truth_collisions"] == 0 and "events" in s
+
+
+def test_start_acceptance_is_the_share_of_the_prior_kept(tmp_path):
+    """A prior centred on the wall's inflated west face (x = 291), at rest with velocity
+    variance 1e-10 (the first step is the start): a start is kept when x < 291 (or beyond
+    the inflated east face at 329, 3.8 sd away), so the share is 0.5 + 7e-5; from 4000
+    draws its binomial standard error is 0.0079, and the tolerance is 4 of them.  A prior
+    far from the wall keeps every draw: exactly 1."""
+    from uavsim.truth import start_acceptance
+
+    on_face = mission(tmp_path, (291.0, 150.0), (0.0, 0.0), [100.0, 100.0, 1e-10, 1e-10, 1e-10, 1e-10])
+    assert start_acceptance(on_face, np.random.default_rng(0))[0] == pytest.approx(0.5, abs=4 * 0.0079)
+    clear = mission(tmp_path, (100.0, 150.0), (0.0, 0.0), [100.0, 100.0, 1e-10, 1.0, 1.0, 1e-10])
+    assert start_acceptance(clear, np.random.default_rng(0))[0] == 1.0

@@ -53,6 +53,7 @@ from .files import write_atomic
 from .guidance import Guidance
 from .mission import Mission, mission_errors
 from .sim import STAGES, Simulation
+from .truth import start_acceptance
 from .uav import BASELINE, MANOEUVRES, make_policy
 
 FORMAT = 4  # trial-file layout; a folder written in another layout is not resumed
@@ -653,7 +654,7 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "pcrlb_pos_per_target": None if bound is None else bound.pos_per_target.tolist(),
         "time_avg_pcrlb": None if bound is None else float(bound.pos.mean()),
         "pcrlb_q2": None if bound is None else bound.q2,
-        **_bound_errors(bound),
+        **_bound_errors(mission, bound),
         "mean_trace": np.stack([r.trace for r in results]).mean(axis=0).T.tolist(),
         "nees": {"pos": metrics.consistency(np.stack([r.nees_pos for r in results]), len(metrics.POS)),
                  "state": metrics.consistency(np.stack([r.nees_state for r in results]), len(metrics.STATE))},
@@ -665,12 +666,16 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
     }
 
 
-def _bound_errors(bound: Bound | None) -> dict:
-    """The PCRLB's Monte-Carlo standard errors (jackknife over the trials): per step of
-    ``pcrlb_pos`` and of ``time_avg_pcrlb``; None with one trial or no bound."""
+def _bound_errors(mission: Mission, bound: Bound | None) -> dict:
+    """What qualifies the PCRLB: its Monte-Carlo standard errors (jackknife over the
+    trials) per step of ``pcrlb_pos`` and of ``time_avg_pcrlb``, None with one trial or
+    no bound; and each target's share of the prior its true start may come from
+    (:func:`.truth.start_acceptance`, 4000 draws from the mission's seed)."""
     se = None if bound is None else bound.standard_error()
     return {"pcrlb_pos_se": None if se is None else se.tolist(),
-            "time_avg_pcrlb_se": None if se is None else float(bound.standard_error(lambda p: p.mean(axis=(-2, -1))))}
+            "time_avg_pcrlb_se": None if se is None else float(bound.standard_error(lambda p: p.mean(axis=(-2, -1)))),
+            "pcrlb_start_acceptance": None if bound is None else
+            start_acceptance(mission, np.random.default_rng(mission.seed)).tolist()}
 
 
 def accuracy_floor(mission: Mission, sensor, results: list[TrialResult]) -> Bound | None:

@@ -315,6 +315,10 @@ def _print_summary(s: dict) -> None:
     print(f"  {'all':<8}{s['time_avg_rmse']:>17.2f}{s['rmse'][-1]:>14.2f}")
     if s["pcrlb_pos"] is not None:
         print(f"  {'PCRLB':<8}{s['time_avg_pcrlb']:>17.2f}{s['pcrlb_pos'][-1]:>14.2f}   {_bound_text(s)}")
+        cut = [f"{n} {a:.0%}" for n, a in zip(s["targets"], s.get("pcrlb_start_acceptance") or []) if a < 0.99]
+        if cut:
+            print(f"  {'':<8}true starts are the prior less the starts that cannot stay out of the buildings "
+                  f"(kept: {', '.join(cut)}); the bound takes the whole prior, so it is not strict for those targets")
     if "baseline" in s:
         b = s["baseline"]
         print(f"  {'no info':<8}{b['time_avg_rmse']:>17.2f}{b['rmse'][-1]:>14.2f}   ratio {b['ratio']:.3f} "

@@ -36,11 +36,43 @@ import numpy as np
 
 from .declare import SettingError
 from .guidance import Guidance, Plan
+from .guidance.model import geometry
 from .mission import Mission
 
 START_DRAWS = 1000  # prior draws per target to find a free-space true start
 PLAN_TRIES = 20  # clear draws tried per target until one has a guidance plan that avoids every obstacle
 NOISE_DRAWS = 8  # process-noise draws per step of a stochastic truth, the first clear of the buildings kept
+
+
+def prior_draws(mission: Mission, rng: np.random.Generator, n: int) -> np.ndarray:
+    """(n, M, 6) draws of every target's initial state from its prior ``N(mu_0, Sigma_0)``."""
+    means = np.array([t.mean0 for t in mission.targets])
+    covs = np.array([t.cov0 for t in mission.targets])
+    z = rng.standard_normal((n, *means.shape))  # (n, M, 6)
+    return means + np.einsum("mij,dmj->dmi", np.linalg.cholesky(covs), z)
+
+
+def clear_starts(mission: Mission, ground, draws: np.ndarray) -> np.ndarray:
+    """(D, M) which draws ``(D, M, 6)`` the truth may start from: the start and its first
+    step ``p + v dt`` outside every obstacle and, where ``ground`` (the guidance's
+    inflated footprints, :class:`.world.model.Polygons`) has any, outside those too."""
+    world = mission.world
+    p0 = world.on_ground(draws[..., :3])
+    p1 = world.on_ground(p0 + mission.dynamics.dt * draws[..., 3:])
+    free = ~world.in_obstacle(p0) & ~world.segment_blocked(p0, p1)
+    if len(ground):
+        free &= ~ground.contains(p0[..., :2]).any(axis=-1) & ~ground.contains(p1[..., :2]).any(axis=-1)
+    return free
+
+
+def start_acceptance(mission: Mission, rng: np.random.Generator, n: int = 4000) -> np.ndarray:
+    """(M,) the share of each target's prior that :func:`clear_starts` keeps, from ``n``
+    draws (binomial standard error ``sqrt(a (1 - a) / n)``).  Below 1 the true starts are
+    the prior restricted, which the PCRLB's prior ``Sigma_0`` does not know (a start that
+    clears the test but has no plan keeping every avoidance row, rarer, also restricts it;
+    those are events in the trial's log)."""
+    polys = geometry(mission.world, mission.dynamics, mission.guidance).polys
+    return clear_starts(mission, polys, prior_draws(mission, rng, n)).mean(axis=0)
 
 
 class Truth:
@@ -67,22 +99,14 @@ class Truth:
         order (see module docstring): the first is the true start unless a planned truth
         has no plan from it.  A fixed number of draws, so the stream does not depend on
         where the obstacles are."""
-        means = np.array([t.mean0 for t in self.m.targets])
-        covs = np.array([t.cov0 for t in self.m.targets])
-        z = rng.standard_normal((START_DRAWS, *means.shape))  # (D, M, 6)
-        draws = means + np.einsum("mij,dmj->dmi", np.linalg.cholesky(covs), z)
-        world, ground = self.m.world, self.guidance.geom.polys
-        p0 = world.on_ground(draws[..., :3])
-        p1 = world.on_ground(p0 + self.m.dynamics.dt * draws[..., 3:])
-        free = ~world.in_obstacle(p0) & ~world.segment_blocked(p0, p1)  # (D, M)
-        if len(ground):  # the start and its first step outside the inflated obstacles
-            free &= ~ground.contains(p0[..., :2]).any(axis=-1) & ~ground.contains(p1[..., :2]).any(axis=-1)
+        draws = prior_draws(self.m, rng, START_DRAWS)
+        free = clear_starts(self.m, self.guidance.geom.polys, draws)
         if not free.any(axis=0).all():
             j = int(np.argmin(free.any(axis=0)))
             raise SettingError(f"targets[{j}].cov0_si",
                                f"none of {START_DRAWS} draws from the prior is outside the obstacles' margins "
                                "and clear of them after one step")
-        return [draws[free[:, j], j] for j in range(len(means))]
+        return [draws[free[:, j], j] for j in range(draws.shape[1])]
 
     def _noise_free_plans(self, step: int) -> list[Plan]:
         plans, self._segment, self._segment_start = [], [], self.sensitivity.copy()
