@@ -322,3 +322,31 @@ def test_jackknife_standard_error_matches_the_spread_over_campaigns():
         ses.append(b.standard_error()[-1])
     ratio = np.mean(ses) / np.std(finals, ddof=1)
     assert 0.85 <= ratio <= 1.5, ratio
+
+
+def test_bound_margins_jackknife_the_rmse_and_the_bound_together():
+    """``campaign.bound_margins``: the time-averaged RMSE less the time-averaged bound per
+    target, and its standard error from recomputing both on every leave-one-out subset of
+    12 trials (here by brute force).  An estimator whose errors are the bound's own size
+    times 0.5 is flagged (margin below -2 s.e.); one at 3 times is not."""
+    from uavsim.campaign import bound_margins
+    from uavsim.metrics import rmse_per_target
+
+    rng = np.random.default_rng(8)
+    sensor = Sensor(1 * DEG, 0.9, 2.0)
+    g, truth, obs, cov0 = _free_tracks(rng, 12)
+    b = pcrlb_planned(g, truth, obs, cov0, sensor)
+    err2 = (b.pos_per_target.T[None] ** 2) * rng.chisquare(2, (12, 4, 2)) / 2  # (trials, T, M), E = bound^2
+    margin, se = bound_margins(err2, b)
+    loo = []
+    for i in range(12):
+        keep = np.delete(np.arange(12), i)
+        bi = pcrlb_planned(g[keep], truth[keep], obs[keep], cov0, sensor)
+        loo.append((rmse_per_target(err2[keep]) - bi.pos_per_target).mean(axis=-1))
+    loo = np.array(loo)
+    np.testing.assert_allclose(margin, (rmse_per_target(err2) - b.pos_per_target).mean(axis=-1), rtol=1e-12)
+    np.testing.assert_allclose(se, np.sqrt(11 / 12 * ((loo - loo.mean(0)) ** 2).sum(0)), rtol=1e-9)
+    small, s_small = bound_margins(0.25 * err2, b)
+    assert np.all(small < -2 * s_small)
+    large, s_large = bound_margins(9 * err2, b)
+    assert np.all(large > 0)

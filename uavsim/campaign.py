@@ -654,7 +654,7 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "pcrlb_pos_per_target": None if bound is None else bound.pos_per_target.tolist(),
         "time_avg_pcrlb": None if bound is None else float(bound.pos.mean()),
         "pcrlb_q2": None if bound is None else bound.q2,
-        **_bound_errors(mission, bound),
+        **_bound_errors(mission, bound, err2),
         "mean_trace": np.stack([r.trace for r in results]).mean(axis=0).T.tolist(),
         "nees": {"pos": metrics.consistency(np.stack([r.nees_pos for r in results]), len(metrics.POS)),
                  "state": metrics.consistency(np.stack([r.nees_state for r in results]), len(metrics.STATE))},
@@ -666,16 +666,44 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
     }
 
 
-def _bound_errors(mission: Mission, bound: Bound | None) -> dict:
+def _bound_errors(mission: Mission, bound: Bound | None, err2: np.ndarray) -> dict:
     """What qualifies the PCRLB: its Monte-Carlo standard errors (jackknife over the
     trials) per step of ``pcrlb_pos`` and of ``time_avg_pcrlb``, None with one trial or
-    no bound; and each target's share of the prior its true start may come from
-    (:func:`.truth.start_acceptance`, 4000 draws from the mission's seed)."""
+    no bound; each target's share of the prior its true start may come from
+    (:func:`.truth.start_acceptance`, 4000 draws from the mission's seed); and the check
+    of the bound against the RMSE, target by target (:func:`bound_margins`; named targets
+    only from :data:`BOUND_CHECK_TRIALS` trials on)."""
     se = None if bound is None else bound.standard_error()
+    margin, margin_se = bound_margins(err2, bound) if se is not None else (None, None)
     return {"pcrlb_pos_se": None if se is None else se.tolist(),
             "time_avg_pcrlb_se": None if se is None else float(bound.standard_error(lambda p: p.mean(axis=(-2, -1)))),
             "pcrlb_start_acceptance": None if bound is None else
-            start_acceptance(mission, np.random.default_rng(mission.seed)).tolist()}
+            start_acceptance(mission, np.random.default_rng(mission.seed)).tolist(),
+            "pcrlb_margin_per_target": None if margin is None else margin.tolist(),
+            "pcrlb_margin_se": None if margin is None else margin_se.tolist(),
+            "pcrlb_beaten": None if margin is None or len(err2) < BOUND_CHECK_TRIALS else
+            [t.name for t, d, s in zip(mission.targets, margin, margin_se) if d < -2.0 * s]}
+
+
+BOUND_CHECK_TRIALS = 10  # fewer trials: the plug-in bound is biased up and its s.e. too rough to judge it
+
+
+def bound_margins(err2: np.ndarray, bound: Bound) -> tuple[np.ndarray, np.ndarray]:
+    """``(margin, se)``, each ``(M,)``: per target the time-averaged RMSE less the
+    time-averaged bound, and its jackknife standard error over the trials (the RMSE and
+    the bound left out together, since both average the same trials).  A bound is beaten
+    beyond its Monte-Carlo error where ``margin < -2 se``.
+
+    Parameters
+    ----------
+    err2 : (trials, T, M) squared position errors; bound : the PCRLB of the same trials,
+    with its leave-one-out bounds (two trials or more).
+    """
+    n = len(err2)
+    margin = (metrics.rmse_per_target(err2) - bound.pos_per_target).mean(axis=-1)
+    rmse_loo = np.sqrt((err2.sum(axis=0) - err2) / (n - 1))  # (n, T, M)
+    loo = (np.swapaxes(rmse_loo, 1, 2) - bound.left_out).mean(axis=-1)  # (n, M)
+    return margin, np.sqrt((n - 1) / n * ((loo - loo.mean(axis=0)) ** 2).sum(axis=0))
 
 
 def accuracy_floor(mission: Mission, sensor, results: list[TrialResult]) -> Bound | None:

@@ -316,6 +316,11 @@ def _print_summary(s: dict) -> None:
     if s["pcrlb_pos"] is not None:
         print(f"  {'PCRLB':<8}{s['time_avg_pcrlb']:>17.2f}{s['pcrlb_pos'][-1]:>14.2f}   {_bound_text(s)}")
         cut = [f"{n} {a:.0%}" for n, a in zip(s["targets"], s.get("pcrlb_start_acceptance") or []) if a < 0.99]
+        if s.get("pcrlb_beaten"):
+            rows = zip(s["targets"], s["pcrlb_margin_per_target"], s["pcrlb_margin_se"])
+            beaten = ", ".join(f"{n} ({d:.2f} +- {e:.2f} m)" for n, d, e in rows if n in s["pcrlb_beaten"])
+            print(f"  {'':<8}beaten beyond 2 Monte-Carlo s.e. (RMSE less bound, time-averaged) by {beaten}: "
+                  "a defect of the bound or of its assumptions")
         if cut:
             print(f"  {'':<8}true starts are the prior less the starts that cannot stay out of the buildings "
                   f"(kept: {', '.join(cut)}); the bound takes the whole prior, so it is not strict for those targets")
