@@ -103,6 +103,15 @@ parameter) is ``P_k >= E[G_k] J_k^-1 E[G_k]^T``, all on ``[x, y, vx, vy]`` and t
 expectations averaged over trials.  Campaigns report that bound for planned truths and
 none for stochastic ones (its recursion would need the Jacobian of the truth's feedback
 ``A + B du/dx`` at every step; not built).
+
+**What it is not.** The expectations are averages over the campaign's trials, so the
+bound is a Monte-Carlo estimate: :meth:`Bound.standard_error` is its jackknife standard
+error over the trials [Efron1981] (a few trials bias it upward: the averages sit inside an
+inverse).  It bounds the RMSE averaged over truths drawn from the prior, not each path's.
+And the simulator draws true starts from the prior restricted to starts that can stay
+out of every building (:func:`uavsim.truth.start_acceptance` says how much of it is
+kept), while ``J_0 = Sigma_0^-1`` is the unrestricted prior's: where the restriction
+bites, an estimator that knows it may beat the bound (campaign summaries report both).
 """
 
 from __future__ import annotations
