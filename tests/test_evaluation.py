@@ -53,12 +53,17 @@ def test_paired_t_by_hand():
 
 
 def test_with_baseline_ratios_by_hand():
-    planner = {"rmse": [2.0, 2.0, 1.0, 1.0], "time_avg_rmse": 1.5, "trial_mse": [1.0, 2.0, 3.0]}
+    """Ratios of the time-averaged RMSE (all, second half, per target), the paired t, and
+    lost tracks: a final error above 3 no-information RMSEs of its target (12.5 > 12 for
+    the one target's third trial; 12.0 is not above)."""
+    planner = {"rmse": [2.0, 2.0, 1.0, 1.0], "time_avg_rmse": 1.5, "trial_mse": [1.0, 2.0, 3.0],
+               "time_avg_rmse_per_target": [1.5], "final_error": [[1.0], [12.0], [12.5]]}
     base = {"rmse": [4.0, 4.0, 4.0, 4.0], "rmse_per_target": [[4.0] * 4], "time_avg_rmse": 4.0,
-            "trial_mse": [2.0, 4.0, 6.0], "nees": {"pos": {"inside": 0.5}}}
+            "time_avg_rmse_per_target": [4.0], "trial_mse": [2.0, 4.0, 6.0], "nees": {"pos": {"inside": 0.5}}}
     b = with_baseline(planner, base)["baseline"]
-    assert b["ratio"] == 1.5 / 4.0 and b["ratio_second_half"] == 1.0 / 4.0
+    assert b["ratio"] == 1.5 / 4.0 and b["ratio_second_half"] == 1.0 / 4.0 and b["ratio_per_target"] == [1.5 / 4.0]
     np.testing.assert_allclose(b["paired_t"], 2 / (1 / np.sqrt(3)))
+    assert b["lost_per_target"] == [1] and b["lost_share"] == 1 / 3
 
 
 # --------------------------------------------------------------------------- the truth

@@ -328,6 +328,12 @@ def _print_summary(s: dict) -> None:
         b = s["baseline"]
         print(f"  {'no info':<8}{b['time_avg_rmse']:>17.2f}{b['rmse'][-1]:>14.2f}   ratio {b['ratio']:.3f} "
               f"(second half {b['ratio_second_half']:.3f}), paired t {b['paired_t']:.1f}")
+        from .campaign import LOST_FACTOR
+
+        ratios = " ".join(f"{n} {r:.2f}" for n, r in zip(s["targets"], b["ratio_per_target"]))
+        lost = sum(b["lost_per_target"])
+        print(f"  {'':<8}per target {ratios}; lost (final error over {LOST_FACTOR:g} no-information RMSEs): "
+              f"{lost} of {len(s['final_error']) * len(s['targets'])} target-trials")
     for key, label in (("pos", "position"), ("state", "state")):
         n = s["nees"][key]
         print(f"  NEES {label} (dof {n['dof']}): mean {np.mean(n['mean']):.2f}, {n['level']:.0%} band "
