@@ -47,7 +47,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from . import metrics
-from .bounds.pcrlb import Bound, pcrlb_planned
+from .bounds.pcrlb import Bound, jackknife_se, pcrlb_planned
 from .declare import file_value
 from .files import write_atomic
 from .guidance import Guidance
@@ -704,7 +704,7 @@ def bound_margins(err2: np.ndarray, bound: Bound) -> tuple[np.ndarray, np.ndarra
     margin = (metrics.rmse_per_target(err2) - bound.pos_per_target).mean(axis=-1)
     rmse_loo = np.sqrt((err2.sum(axis=0) - err2) / (n - 1))  # (n, T, M)
     loo = (np.swapaxes(rmse_loo, 1, 2) - bound.left_out).mean(axis=-1)  # (n, M)
-    return margin, np.sqrt((n - 1) / n * ((loo - loo.mean(axis=0)) ** 2).sum(axis=0))
+    return margin, jackknife_se(loo)
 
 
 def accuracy_floor(mission: Mission, sensor, results: list[TrialResult]) -> Bound | None:

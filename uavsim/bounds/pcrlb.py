@@ -346,9 +346,7 @@ class Bound:
         the trials less trial i [Efron1981]."""
         if self.left_out is None or self.trials < 2:
             return None
-        s = np.asarray(stat(self.left_out))  # (trials, ...)
-        n = self.trials
-        return np.sqrt((n - 1) / n * ((s - s.mean(axis=0)) ** 2).sum(axis=0))
+        return jackknife_se(np.asarray(stat(self.left_out)))
 
     @property
     def pos(self) -> np.ndarray:
@@ -455,6 +453,13 @@ def pcrlb_planned(sensitivity: np.ndarray, truth: np.ndarray, observers: np.ndar
                                                    (sum_g - g[i:i + LOO_CHUNK]) / (n - 1)))
                                    for i in range(0, n, LOO_CHUNK)])
     return Bound(cov=cov, q2=q2, trials=n, left_out=left_out)
+
+
+def jackknife_se(left_out: np.ndarray) -> np.ndarray:
+    """The jackknife standard error [Efron1981] of a statistic from its values on the n
+    leave-one-out samples ``left_out (n, ...)``: ``sqrt((n - 1) / n sum_i (s_i - mean s)^2)``."""
+    n = len(left_out)
+    return np.sqrt((n - 1) / n * ((left_out - left_out.mean(axis=0)) ** 2).sum(axis=0))
 
 
 LOO_CHUNK = 64  # leave-one-out bounds computed together (memory: 64 x T x M x 4 x 4 floats)
