@@ -6,7 +6,15 @@ import math
 import numpy as np
 import pytest
 
-from uavsim.belief.particle import ParticleFilter, halves, log_likelihood, systematic_indices, weighted_moments
+from uavsim.belief.particle import (
+    ParticleBelief,
+    ParticleFilter,
+    halves,
+    log_likelihood,
+    systematic_indices,
+    uniform_loglik,
+    weighted_moments,
+)
 from uavsim.sensing import Sensor, wrap_angle
 from uavsim.targets import Dynamics
 
@@ -81,6 +89,89 @@ def test_systematic_resampling_counts_by_hand():
     assert np.all(counts >= np.floor(50 * w) - 1e-9) and np.all(counts <= np.ceil(50 * w) + 1e-9)
 
 
+def test_systematic_resampling_to_fewer_particles_by_hand():
+    """k draws from N weights pick particle i floor(k w_i) or ceil(k w_i) times."""
+    rng = np.random.default_rng(4)
+    w = rng.dirichlet(np.ones(50), size=3)
+    idx = systematic_indices(rng, w, 20)
+    counts = np.array([np.bincount(row, minlength=50) for row in idx])
+    assert idx.shape == (3, 20)
+    assert np.all(counts >= np.floor(20 * w) - 1e-9) and np.all(counts <= np.ceil(20 * w) + 1e-9)
+
+
+@pytest.mark.parametrize("lam, pd, n", [(1.0, 0.95, 0), (1.0, 0.95, 1), (1.0, 0.95, 3), (0.0, 0.9, 1),
+                                        (0.0, 1.0, 1), (2.5, 0.0, 2)])
+def test_uniform_loglik_is_eq10_averaged_over_the_circle(lam, pd, n):
+    """``g_u`` equals Eq. (10) averaged over 200 000 bearings spread evenly on the circle
+    (sigma = 5 deg, so the truncated Gaussian tails are ~1e-300 of its mass)."""
+    rng = np.random.default_rng(n)
+    k = max(n, 1)
+    bearings = np.zeros((1, k))
+    bearings[0, :n] = rng.uniform(-math.pi, math.pi, n)
+    valid = np.arange(k)[None, :] < n
+    s = Sensor(math.radians(5.0), pd, lam)
+    grid = np.linspace(-math.pi, math.pi, 200_000, endpoint=False)[None, :]
+    want = np.log(np.exp(log_likelihood(bearings, valid, grid, s)).mean())
+    np.testing.assert_allclose(uniform_loglik(valid, s), [want], rtol=1e-9)
+
+
+def _belief_on(target: np.ndarray, spread: float, nats: float, n: int = 400, seed: int = 0) -> ParticleBelief:
+    """One target's belief of n particles around ``target (2,)`` (std ``spread`` m)."""
+    mean = np.r_[target, 0.0, 0.0, 0.0, 0.0][None]
+    cov = np.diag([spread**2, spread**2, 1.0, 1.0, 1.0, 1.0])[None]
+    return ParticleBelief(np.random.default_rng(seed), mean, cov, n, 0.5, 0.0, ("T1",), nats)
+
+
+def test_track_loss_is_declared_from_the_bearings_not_by_chance():
+    """Paper sensor (1 deg, p_D 0.95, Lambda 1), target 400 m north of the sensor.  A cloud
+    on the target survives 200 scans without a loss; a cloud 100 m east of it (14 deg
+    off, 14 sigma) is declared lost after 3-5 scans: a detection adds log(1 + 19 n)
+    (3.0-3.7 nats) against a threshold of 10."""
+    from uavsim.sensing import observe
+
+    s = Sensor(math.radians(1.0), 0.95, 1.0)
+    truth, observer = np.array([[0.0, 400.0, 0.0]]), np.zeros(3)
+    rng = np.random.default_rng(7)
+    on, off = _belief_on(truth[0, :2], 5.0, 10.0), _belief_on(truth[0, :2] + [100.0, 0.0], 5.0, 10.0)
+    lost_at = None
+    for k in range(200):
+        scan = observe(rng, s, truth, observer)
+        on.update([scan], observer[None], s)
+        assert not on.lost[0], f"a cloud on its target declared lost at scan {k}"
+        off.update([scan], observer[None], s)
+        if lost_at is None and off.lost[0]:
+            lost_at = k + 1
+    assert lost_at is not None and 3 <= lost_at <= 5
+
+
+def test_loss_detection_off_never_declares():
+    s = Sensor(math.radians(1.0), 0.95, 1.0)
+    from uavsim.sensing import observe
+
+    b, rng = _belief_on(np.array([100.0, 400.0]), 5.0, 0.0), np.random.default_rng(1)
+    for _ in range(20):
+        b.update([observe(rng, s, np.array([[0.0, 400.0, 0.0]]), np.zeros(3))], np.zeros((1, 3)), s)
+    assert not b.lost.any() and b.cusum[0] == 0.0
+
+
+def test_reseed_keeps_the_cloud_share_and_weighs_all_alike():
+    """Re-seeding 100 of 400 particles: the 300 kept are a systematic resample of the
+    weighted cloud (each particle floor(300 w) or ceil(300 w) times), the 100 fresh ones
+    follow, every weight is 1/400 and the loss evidence restarts."""
+    b = _belief_on(np.array([0.0, 0.0]), 5.0, 10.0)
+    w = np.random.default_rng(2).dirichlet(np.ones(400))
+    b.pf.logw = np.log(w)[None]
+    b.cusum[0] = 12.0
+    old = b.pf.particles.copy()
+    fresh = np.full((1, 100, 6), 77.0)
+    b.reseed(np.array([0]), fresh)
+    assert np.all(b.pf.particles[0, 300:] == 77.0) and b.cusum[0] == 0.0
+    np.testing.assert_allclose(b.pf.weights, 1 / 400)
+    picked = (b.pf.particles[0, :300, None, :] == old[0, None]).all(-1).argmax(axis=1)
+    counts = np.bincount(picked, minlength=400)
+    assert np.all(counts >= np.floor(300 * w) - 1e-9) and np.all(counts <= np.ceil(300 * w) + 1e-9)
+
+
 def test_moments_eq11_match_numpy():
     rng = np.random.default_rng(1)
     p = rng.normal(size=(2, 300, 6))
@@ -97,7 +188,7 @@ def test_degenerate_update_is_skipped_and_reported():
     before = pf.logw.copy()
     loglik = np.zeros((2, 100))
     loglik[1] = -np.inf
-    bad = pf.update(loglik)
+    bad, _ = pf.update(loglik)
     assert bad.tolist() == [False, True]
     np.testing.assert_array_equal(pf.logw[1], before[1])
     assert np.all(np.isfinite(pf.logw))
@@ -212,3 +303,24 @@ def test_roughening_adds_the_specified_jitter():
     var = pf.particles[0].var(axis=0)
     np.testing.assert_array_less(np.abs(var / sd**2 - 1), 5 * np.sqrt(2 / n))
     np.testing.assert_allclose(pf.particles[0].mean(axis=0), chosen, atol=5 * sd / np.sqrt(n))
+
+
+def test_noise_levels_scale_each_particles_noise_and_follow_resampling():
+    """Jump-Markov process noise: with scales (0.25, 1) and no switching, the particles of
+    level 0 move by noise of standard deviation 0.5 and the others by 1 (20 000 particles:
+    s.e. of a standard deviation under 0.4%, tolerance 4%); resampling onto the level-0
+    particles leaves only level 0; with switch = 1 each particle redraws its level, half
+    of them level 0 (s.e. 0.0035, tolerance 0.02)."""
+    rng = np.random.default_rng(5)
+    n = 20_000
+    pf = ParticleFilter.from_priors(rng, np.zeros((1, 6)), np.eye(6)[None], n, np.array([0.25, 1.0]), 0.0)
+    before, mode = pf.particles.copy(), pf.mode.copy()
+    pf.predict(rng, np.eye(6), np.zeros((6, 3)), np.eye(6), np.zeros((1, 3)))
+    step = pf.particles - before
+    np.testing.assert_allclose([step[0, mode[0] == 0].std(), step[0, mode[0] == 1].std()], [0.5, 1.0], rtol=0.04)
+    pf.logw = np.where(mode == 0, 0.0, -np.inf) - np.log(np.count_nonzero(mode == 0))
+    pf.resample(rng, 1.0)
+    assert np.all(pf.mode == 0)
+    pf.switch = 1.0
+    pf.predict(rng, np.eye(6), np.zeros((6, 3)), np.eye(6), np.zeros((1, 3)))
+    assert abs(np.mean(pf.mode == 0) - 0.5) < 0.02

@@ -43,9 +43,12 @@ def test_generated_missions_carry_the_paper_numbers(suite):
         for a, b in ((m.dynamics, paper.dynamics), (m.sensor, paper.sensor)):
             assert {k: v for k, v in vars(a).items() if k != "q"} == {k: v for k, v in vars(b).items() if k != "q"}
         np.testing.assert_array_equal(m.dynamics.q, paper.dynamics.q)
-        # the filter's one difference: each half of a particle cloud moves by its own plan
-        # (the paper's one plan from the mean lost targets on generated worlds; docs/methods/filter.md)
-        assert m.guidance == paper.guidance and m.filter == replace(paper.filter, plan_clusters=2)
+        # the filter's differences: each half of a particle cloud moves by its own plan (the
+        # paper's one plan from the mean lost targets on generated worlds), lost tracks are
+        # detected and re-seeded, and particles carry one of two process-noise levels
+        # (docs/methods/filter.md)
+        assert m.guidance == paper.guidance
+        assert m.filter == replace(paper.filter, plan_clusters=2, loss_nats=10.0, noise_scales=(0.1, 1.0))
         assert (m.uav.step, m.uav.n_theta, m.uav.n_r, m.steps) == (paper.uav.step, paper.uav.n_theta,
                                                                     paper.uav.n_r, paper.steps)
         for t in m.targets:

@@ -299,6 +299,10 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
     data = asdict(_fingerprinted(mission, planner))
     if data["filter"]["plan_clusters"] == 1:  # as before the setting existed: those folders still resume
         del data["filter"]["plan_clusters"]
+    if data["filter"]["loss_nats"] == 0 or planner == BASELINE:  # no loss detection (or no scans): as before
+        del data["filter"]["loss_nats"], data["filter"]["reseed_share"]
+    if len(data["filter"]["noise_scales"]) == 1 and data["filter"]["noise_scales"][0] == 1.0:  # one Q: as before
+        del data["filter"]["noise_scales"], data["filter"]["scale_switch"]
     if data["guidance"]["terminal"] == "soft":  # likewise
         del data["guidance"]["terminal"]
     if data["world"]["prisms"] is None:  # a world of cuboids, as before prisms existed
@@ -661,10 +665,23 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
                  "state": metrics.consistency(np.stack([r.nees_state for r in results]), len(metrics.STATE))},
         "guidance_status": dict(sorted(statuses.items())),
         "events": sum(len(r.events) for r in results),
+        "track_loss_events": track_loss_events([t.name for t in mission.targets], results),
         "truth_collisions": sum(r.collisions for r in results),
         "timing": {k: float(np.median(secs[:, i])) for i, k in enumerate(STAGES)},
         "wall_seconds": wall,
     }
+
+
+def track_loss_events(names: list[str], results: list[TrialResult]) -> list[int]:
+    """``(M,)`` how often each target's track was declared lost and re-seeded over the
+    trials (the events of :meth:`uavsim.sim.Simulation._recover`)."""
+    counts = dict.fromkeys(names, 0)
+    for r in results:
+        for e in r.events:
+            name, _, rest = e.partition(": ")[2].partition(": ")
+            if rest.startswith("track lost") and name in counts:
+                counts[name] += 1
+    return list(counts.values())
 
 
 def _bound_errors(mission: Mission, bound: Bound | None, err2: np.ndarray) -> dict:

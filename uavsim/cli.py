@@ -334,6 +334,9 @@ def _print_summary(s: dict) -> None:
         lost = sum(b["lost_per_target"])
         print(f"  {'':<8}per target {ratios}; lost (final error over {LOST_FACTOR:g} no-information RMSEs): "
               f"{lost} of {len(s['final_error']) * len(s['targets'])} target-trials")
+    if any(s.get("track_loss_events", [])):
+        declared = ", ".join(f"{n} {k}" for n, k in zip(s["targets"], s["track_loss_events"]) if k)
+        print(f"  {'':<8}tracks declared lost by the filter and re-seeded from the bearings: {declared}")
     for key, label in (("pos", "position"), ("state", "state")):
         n = s["nees"][key]
         print(f"  NEES {label} (dof {n['dof']}): mean {np.mean(n['mean']):.2f}, {n['level']:.0%} band "

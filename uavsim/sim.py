@@ -18,7 +18,10 @@ Each step t -> t+1:
    holding less than :data:`MIN_HALF` of the weight moves by the mean's plan;
 4. **UAV**: the policy moves (:mod:`.uav`: Eq. 12-13 grid moves, a manoeuvre, fixed
    sensors, no sensor), or takes the move given to :meth:`Simulation.step`;
-5. **truth moves**, then **sense and update** (Eq. 4, 9b-11) from the policy's observers.
+5. **truth moves**, then **sense and update** (Eq. 4, 9b-11) from the policy's observers;
+   a track the belief declares lost (``[filter] loss_nats``,
+   :class:`.belief.particle.ParticleBelief`) is re-seeded from the scans and the routes to
+   its goal (:mod:`.belief.recovery`) and logged as a track-loss event.
 
 Randomness: a trial gets one ``SeedSequence``; it spawns separate streams for the truth's
 process noise, the sensor, the filter, the UAV start and the truth's initial state, so
@@ -33,12 +36,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .belief import make_belief
+from .belief import make_belief, recovery
 from .guidance import Guidance, Plan
 from .mission import Mission
 from .sensing import Scan, observe
 from .truth import Truth
 from .uav import make_policy
+from .world.routes import GoalField
 
 STAGES = ("guidance", "filter", "planner", "truth", "total")  # seconds per step; "planner": the policy's act
 MIN_HALF = 0.01  # a half of the particle cloud with less weight than this moves by the mean's plan
@@ -80,6 +84,7 @@ class Simulation:
         self.m, self.oracle = mission, oracle
         self.policy = make_policy(planner, mission)
         self.guidance = guidance or Guidance(mission.world, mission.dynamics, mission.guidance)
+        self._fields: dict = {}  # goal index -> GoalField (track recovery)
 
     def reset(self, seed: np.random.SeedSequence | int) -> StepInfo:
         if isinstance(seed, np.random.SeedSequence):  # a fresh copy: spawning twice from one object differs
@@ -144,11 +149,36 @@ class Simulation:
         observers, sensor = self.policy.observers, self.policy.sensor
         scans = [observe(self.rng_sensor, sensor, self.truth.state[:, :3], o) for o in observers]
         events += self.belief.update(scans, observers, sensor)
+        if scans and getattr(self.belief, "lost", np.zeros(0)).any():
+            events += self._recover(scans, observers, sensor)
         sec["filter"] += time.perf_counter() - t5
         sec["total"] = sum(sec[k] for k in STAGES[:-1])  # the stages cover the step (prepare may run earlier)
         self.t += 1
         self._prepared = False
         return self._info(scans, [] if self.oracle else self.plans, moves, sec, events)
+
+    def _recover(self, scans, observers, sensor) -> list[str]:
+        """Re-seed the tracks the belief declares lost (:mod:`.belief.recovery`): a
+        track-loss event per target, saying how many particles moved."""
+        rows = np.flatnonzero(self.belief.lost)
+        goals = [self.m.targets[j].goal for j in rows]
+        fields = [self._field(g) for g in goals]
+        cloud = self.belief.pf.particles[rows]
+        n = max(1, round(self.m.filter.reseed_share * cloud.shape[1]))
+        evidence = self.belief.cusum[rows]
+        fresh, ok = recovery.draw(self.belief.rng, cloud, scans, observers, sensor, self.m.world, fields, rows, n)
+        self.belief.reseed(rows[ok], fresh[ok])
+        return [f"{self.m.targets[j].name}: track lost ({e:.1f} nats against its cloud); "
+                + (f"{n} of {cloud.shape[1]} particles re-seeded along its bearings and routes" if good else
+                   "no bearing to re-seed from, kept")
+                for j, e, good in zip(rows, evidence, ok)]
+
+    def _field(self, goal: int):
+        """The route field to world goal ``goal`` (built once per simulation, when first needed)."""
+        if goal not in self._fields:
+            w = self.m.world
+            self._fields[goal] = GoalField(w.goals[goal].centroid, w.ground(0.0)[1], w.area_lo, w.area_hi)
+        return self._fields[goal]
 
     def _info(self, scans, plans, moves, seconds, events) -> StepInfo:
         mean, cov = self.belief.moments()

@@ -103,7 +103,7 @@ def filter_run() -> dict[str, np.ndarray]:
             scan = Scan(scan.bearings[:, :1] * np.array([[1.0], [0.0]]), np.array([[True], [False]]),
                         np.array([[True], [False]]))
             sensor = Sensor(m.sensor.sigma, 1.0, 0.0)
-        rows["degenerate"].append(pf.update(scan_loglik(scan, pf.particles, observer, sensor)))
+        rows["degenerate"].append(pf.update(scan_loglik(scan, pf.particles, observer, sensor))[0])
         rows["ess"].append(pf.ess())
         rows["resampled"].append(pf.resample(rng, 0.5, roughening=0.2))
         mean, cov = pf.moments()

@@ -38,7 +38,13 @@ class FilterConfig:
     ``plan_clusters``: 1, every particle moves by the plan from the posterior mean
     ([Papaioannou2023, Sec. V]; the paper's missions say so); 2 (the default for
     particles), the cloud is split in two (:func:`.particle.halves`) and each half moves by
-    the plan from its own mean (particle filters only; see :mod:`uavsim.sim`)."""
+    the plan from its own mean (particle filters only; see :mod:`uavsim.sim`).
+
+    ``loss_nats``, ``reseed_share``: track-loss detection (:class:`.particle.ParticleBelief`)
+    and recovery (:mod:`.recovery`); ``noise_scales``, ``scale_switch``: process-noise
+    levels the particles jump between (:meth:`.particle.ParticleFilter.predict`); particle
+    filters only.  The paper's missions set ``loss_nats = 0`` and ``noise_scales = [1.0]``,
+    its filter as published."""
 
     kind: str = setting("kind", "particle", choices=KINDS,
                         doc="the estimator: particle filters ([Papaioannou2023, Sec. V-A]) or a pseudo-linear "
@@ -48,10 +54,24 @@ class FilterConfig:
                                         doc="resample when the effective sample size < threshold x particles")
     roughening: float = setting("roughening", 0.0, lo=0, hi=2,
                                 doc="roughening factor K after resampling: jitter of K x spread x N^(-1/d)")
+    loss_nats: float = setting("loss_nats", 10.0, lo=0, hi=1e6,
+                               doc="declare a track lost when the evidence against its particle cloud (a CUSUM "
+                                   "[Page1954] of log likelihood ratios, see uavsim.belief.particle) passes this many "
+                                   "nats, and re-seed it from the bearings; 0: never (the paper's filter)")
+    reseed_share: float = setting("reseed_share", 0.5, lo=0.01, hi=1,
+                                  doc="share of a lost track's particles re-seeded from the bearings and routes")
+    noise_scales: tuple[float, ...] = setting("noise_scales", [0.1, 1.0], kind="array", shape=(None,), lo=1e-6, hi=1e6,
+                                       doc="multipliers of the process noise Q a particle may carry (jump-Markov "
+                                           "[McGinnity2000]: the bearings weigh which fits); one value: every "
+                                           "particle uses Q")
+    scale_switch: float = setting("scale_switch", 0.05, lo=0, hi=1,
+                                  doc="per step, the chance a particle redraws its process-noise multiplier")
     plan_clusters: int = setting("plan_clusters", kind="integer", lo=1, hi=2, derived="2 for kind = particle, else 1",
                                  doc="plans per target: 1 from the mean, 2 one per half of the particle cloud")
 
     def __post_init__(self):
+        # a tuple, so that settings compare (an array field would make == ambiguous)
+        object.__setattr__(self, "noise_scales", tuple(float(v) for v in np.atleast_1d(self.noise_scales)))
         if self.plan_clusters is None:
             object.__setattr__(self, "plan_clusters", 2 if self.kind == "particle" else 1)
         if self.plan_clusters > 1 and self.kind != "particle":
@@ -85,5 +105,6 @@ def make_belief(cfg: FilterConfig, rng: np.random.Generator, means: np.ndarray, 
                 speed_max: float, names: tuple[str, ...]) -> Belief:
     """The belief ``cfg.kind`` names, starting from the priors ``N(means, covs)``."""
     if cfg.kind == "particle":
-        return ParticleBelief(rng, means, covs, cfg.particles, cfg.resample_threshold, cfg.roughening, names)
+        return ParticleBelief(rng, means, covs, cfg.particles, cfg.resample_threshold, cfg.roughening, names,
+                              cfg.loss_nats, cfg.noise_scales, cfg.scale_switch)
     return GaussianBelief(cfg.kind, means, covs, speed_max, names)

@@ -6,7 +6,10 @@
 * Predict (Eq. 9a): ``x <- A x + B u_j + nu``, ``nu ~ N(0, Q)``; ``u_j`` is the first
   control of target j's guidance re-plan.  Optionally the cloud is split in two
   (:func:`halves`) and each half moves by the plan from its own mean (``[filter]
-  plan_clusters = 2``, see :mod:`uavsim.sim`).
+  plan_clusters = 2``, see :mod:`uavsim.sim`).  With ``[filter] noise_scales`` of two or
+  more values each particle carries one of them and its noise is ``N(0, scale Q)``; a
+  particle redraws its scale uniformly with probability ``scale_switch`` per step (a
+  jump-Markov model [McGinnity2000]), and the weights keep the scales the bearings support.
 * Update (Eq. 9b) with the measurement-set likelihood Eq. (10).  For uniform clutter
   ``p(phi) = 1 / (2 pi)`` and ``Psi(n; L) = e^-L L^n / n!`` the factorials cancel:
 
@@ -162,6 +165,21 @@ def _hypothesis_logs(n: np.ndarray, lam: float, pd: float) -> tuple[np.ndarray, 
     return log_miss, log_det
 
 
+def uniform_loglik(valid: np.ndarray, sensor: Sensor) -> np.ndarray:
+    """``log g(Phi)`` of Eq. (10) for a target whose bearing is uniform on the circle:
+    ``(M,)`` from one scan's ``valid (M, K)``.  Averaging ``N(phi_i; l, sigma^2)`` over ``l``
+    gives ``1 / 2pi`` (sigma << pi), so with the module docstring's cancellations
+
+        g_u(Phi) = e^-L [(1 - p_D) (L / 2pi)^n + n p_D (L / 2pi)^(n-1) / 2pi].
+
+    The yardstick of a lost track (:meth:`ParticleBelief.update`): a cloud that explains
+    the scan worse than a target anywhere is not where the target is."""
+    n = np.count_nonzero(valid, axis=1)
+    log_miss, log_det = _hypothesis_logs(n, sensor.clutter_rate, sensor.p_detect)
+    with np.errstate(divide="ignore"):
+        return np.logaddexp(log_miss, log_det + np.log(n) - LOG_2PI) - sensor.clutter_rate
+
+
 class ParticleFilter:
     """M particle filters in one array; a thin stateful wrapper around pure steps.
 
@@ -172,9 +190,14 @@ class ParticleFilter:
     decision all read it).
     """
 
-    def __init__(self, particles: np.ndarray, logw: np.ndarray):
+    def __init__(self, particles: np.ndarray, logw: np.ndarray, scales: np.ndarray | None = None,
+                 switch: float = 0.0, rng: np.random.Generator | None = None):
         self.particles, self.logw = particles, logw
         self._work: dict = {}  # scratch buffers
+        # jump-Markov process noise: each particle's Q is scales[mode] Q (None: Q for all)
+        self.levels = None if scales is None or len(scales) < 2 else np.sqrt(np.asarray(scales, float))
+        self.switch = switch
+        self.mode = None if self.levels is None else rng.integers(len(self.levels), size=particles.shape[:2])
 
     @property
     def logw(self) -> np.ndarray:
@@ -191,22 +214,30 @@ class ParticleFilter:
         return self._weights
 
     @classmethod
-    def from_priors(cls, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int) -> "ParticleFilter":
-        """Sample N particles per target from ``N(mean (M, 6), cov (M, 6, 6))``."""
+    def from_priors(cls, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int,
+                    scales: np.ndarray | None = None, switch: float = 0.0) -> "ParticleFilter":
+        """Sample N particles per target from ``N(mean (M, 6), cov (M, 6, 6))``; ``scales``,
+        ``switch``: see :meth:`predict`."""
         chol = np.linalg.cholesky(covs)
         z = rng.standard_normal((means.shape[0], n, 6))
         particles = means[:, None, :] + np.einsum("mij,mnj->mni", chol, z)
-        return cls(particles, np.full(particles.shape[:2], -np.log(n)))
+        return cls(particles, np.full(particles.shape[:2], -np.log(n)), scales, switch, rng)
 
     def predict(self, rng: np.random.Generator, a: np.ndarray, b: np.ndarray, q_chol: np.ndarray,
                 controls: np.ndarray, split: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         """Eq. (9a): ``x <- A x + B u + nu`` with ``controls (M, 3)``; ``split = (mask (M, N)
-        bool, other (M, 3))``: the masked particles take ``other`` instead.
+        bool, other (M, 3))``: the masked particles take ``other`` instead.  With noise
+        levels (``scales`` of :meth:`from_priors`, two or more) particle n's ``nu`` is
+        ``sqrt(scales[mode_n]) L z`` and ``mode`` jumps first (module docstring).
 
         The noise goes through two buffers kept between calls: fresh temporaries of this
         size cost page faults on every step (the allocator returns them to the system)."""
         x = self.particles @ a.T
         noise = rng.standard_normal(out=_scratch(self._work, "z", x.shape))
+        if self.levels is not None:
+            jump = rng.random(self.mode.shape) < self.switch
+            self.mode[jump] = rng.integers(len(self.levels), size=int(jump.sum()))
+            noise *= self.levels[self.mode][..., None]
         if np.any(np.tril(q_chol, -1)):
             x += np.matmul(noise, q_chol.T, out=_scratch(self._work, "noise", x.shape))
             _affine_rows(x, None, controls @ b.T)
@@ -217,9 +248,11 @@ class ParticleFilter:
             x += mask[..., None] * ((other - controls) @ b.T)[:, None, :]
         self.particles = x
 
-    def update(self, loglik: np.ndarray) -> np.ndarray:
-        """Eq. (9b) with ``loglik (M, N)``.  Returns (M,) bool: the update was degenerate
-        (no particle explains the measurements) and was skipped for that target."""
+    def update(self, loglik: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Eq. (9b) with ``loglik (M, N)``.  Returns ``(bad, evidence)``: (M,) bool, the
+        update was degenerate (no particle explains the measurements) and was skipped for
+        that target; (M,) ``log sum_n w_n g(Phi | x_n)``, the scan's likelihood under the
+        predicted cloud (``-inf`` where degenerate)."""
         logw = self.logw + loglik
         top = logw.max(axis=1)  # (M,) not finite: every particle -inf (or a NaN)
         bad = ~np.isfinite(top)
@@ -227,11 +260,13 @@ class ParticleFilter:
             top[bad] = 0.0
         logw -= top[:, None]
         shifted = np.maximum(logw, EXP_FLOOR)  # see _shared_shift: each sum is >= 1
-        logw -= np.log(np.exp(shifted, out=shifted).sum(axis=1))[:, None]
+        log_sum = np.log(np.exp(shifted, out=shifted).sum(axis=1))
+        logw -= log_sum[:, None]
+        evidence = np.where(bad, -np.inf, top + log_sum)
         if bad.any():
             logw[bad] = self.logw[bad]
         self.logw = logw
-        return bad
+        return bad, evidence
 
     def ess(self) -> np.ndarray:
         """(M,) effective sample size ``1 / sum w^2``."""
@@ -257,6 +292,8 @@ class ParticleFilter:
             spread = self.particles[rows].max(axis=1) - self.particles[rows].min(axis=1)  # (r, d)
             picked = picked + rng.standard_normal(picked.shape) * (roughening * spread * n ** (-1.0 / d))[:, None, :]
         self.particles[rows] = picked
+        if self.mode is not None:
+            self.mode[rows] = self.mode.reshape(-1).take(flat).reshape(rows.size, n)
         logw = self.logw.copy()
         logw[rows] = -np.log(n)
         self.logw = logw
@@ -303,18 +340,20 @@ def _centres(z, weights, side):
     return c0, c1, m0, m1
 
 
-def systematic_indices(rng: np.random.Generator, weights: np.ndarray) -> np.ndarray:
-    """Systematic resampling, one uniform per row: ``weights (R, N)`` -> indices ``(R, N)``.
+def systematic_indices(rng: np.random.Generator, weights: np.ndarray, k: int | None = None) -> np.ndarray:
+    """Systematic resampling, one uniform per row: ``weights (R, N)`` -> indices ``(R, k)``
+    (``k = N`` by default).
 
     Rows are searched at once by offsetting row r's cumulative weights by r.
     """
     r, n = weights.shape
+    k = n if k is None else k
     cum = np.cumsum(weights, axis=1)
     cum /= cum[:, -1:]
     offsets = np.arange(r)[:, None]
-    positions = (rng.random((r, 1)) + np.arange(n)[None, :]) / n
+    positions = (rng.random((r, 1)) + np.arange(k)[None, :]) / k
     idx = np.searchsorted((cum + offsets).ravel(), (positions + offsets).ravel(), side="right")
-    return np.minimum(idx.reshape(r, n) - offsets * n, n - 1)
+    return np.minimum(idx.reshape(r, k) - offsets * n, n - 1)
 
 
 def weighted_moments(particles: np.ndarray, weights: np.ndarray, work: dict | None = None
@@ -374,13 +413,30 @@ def scan_loglik(scan: Scan, particles: np.ndarray, observer: np.ndarray, sensor:
 class ParticleBelief:
     """The :class:`uavsim.belief.Belief` of [Papaioannou2023, Sec. V-A]: M particle filters with the
     clutter likelihood, systematic resampling (and roughening) when the ESS is low, and the
-    pseudo-posterior traces of Eq. (12) for the UAV's decision."""
+    pseudo-posterior traces of Eq. (12) for the UAV's decision.
+
+    Track loss (``loss_nats > 0``): a CUSUM [Page1954] per target of the log likelihood ratio of
+    "the target is anywhere" (:func:`uniform_loglik`) to "the target is in the predicted
+    cloud" (the update's evidence), ``S <- max(0, S + log g_u - log g_cloud)``, summed over
+    the sensors of a step.  A tracked target's detection takes about 5 nats off (paper
+    sensor: sigma 1 deg, p_D 0.95, Lambda 1) and a missed one adds at most ``log(1 + n p_D /
+    ((1 - p_D) L))`` (3.0 for one false alarm); a lost target's detection adds about as
+    much.  ``S > loss_nats`` declares the track lost (:attr:`lost`): the cloud has left
+    the target, and the closed loop re-seeds it (:mod:`.recovery`), which resets ``S``.
+    """
 
     def __init__(self, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int,
-                 resample_threshold: float, roughening: float, names: tuple[str, ...]):
+                 resample_threshold: float, roughening: float, names: tuple[str, ...], loss_nats: float = 0.0,
+                 noise_scales: np.ndarray | None = None, scale_switch: float = 0.0):
         self.rng, self.names = rng, names
-        self.threshold, self.roughening = resample_threshold, roughening
-        self.pf = ParticleFilter.from_priors(rng, means, covs, n)
+        self.threshold, self.roughening, self.loss_nats = resample_threshold, roughening, loss_nats
+        self.pf = ParticleFilter.from_priors(rng, means, covs, n, noise_scales, scale_switch)
+        self.cusum = np.zeros(len(means))  # (M,) nats of evidence that the cloud has lost its target
+
+    @property
+    def lost(self) -> np.ndarray:
+        """(M,) bool: the targets whose evidence of loss passed ``loss_nats`` (never if 0)."""
+        return (self.cusum > self.loss_nats) if self.loss_nats > 0 else np.zeros(len(self.cusum), bool)
 
     def predict(self, dynamics: Dynamics, controls: np.ndarray,
                 split: tuple[np.ndarray, np.ndarray] | None = None) -> None:
@@ -405,8 +461,12 @@ class ParticleBelief:
         if not scans:  # no sensor: the prediction is the posterior
             return []
         loglik = sum(scan_loglik(s, self.pf.particles, o, sensor) for s, o in zip(scans, observers))
+        bad, evidence = self.pf.update(loglik)
         events = [f"{self.names[j]}: degenerate update skipped (no particle explains the bearings)"
-                  for j in np.flatnonzero(self.pf.update(loglik))]
+                  for j in np.flatnonzero(bad)]
+        if self.loss_nats > 0:  # a degenerate update is as strong a sign of loss as the threshold
+            against = sum(uniform_loglik(s.valid, sensor) for s in scans) - evidence
+            self.cusum = np.maximum(0.0, self.cusum + np.minimum(against, self.loss_nats + 1.0))
         resampled = self.pf.resample(self.rng, self.threshold, self.roughening)
         if resampled.any():
             events.append("resampled " + ", ".join(self.names[j] for j in np.flatnonzero(resampled)))
@@ -414,6 +474,24 @@ class ParticleBelief:
 
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
         return self.pf.moments()
+
+    def reseed(self, rows: np.ndarray, fresh: np.ndarray) -> None:
+        """Targets ``rows (L,)`` take ``fresh (L, R, 6)`` particles in place of R of their
+        own: the cloud is first resampled (systematic) to ``N - R`` equally weighted
+        particles, so the part still on the target keeps its share, and every particle
+        then weighs ``1 / N``; the loss evidence of those targets restarts at 0."""
+        n = self.pf.particles.shape[1]
+        keep = n - fresh.shape[1]
+        idx = systematic_indices(self.rng, self.pf.weights[rows], keep)
+        kept = np.take_along_axis(self.pf.particles[rows], idx[..., None], axis=1)
+        self.pf.particles[rows] = np.concatenate([kept, fresh], axis=1)
+        if self.pf.mode is not None:
+            self.pf.mode[rows] = np.concatenate([np.take_along_axis(self.pf.mode[rows], idx, axis=1), self.rng.integers(
+                len(self.pf.levels), size=fresh.shape[:2])], axis=1)
+        logw = self.pf.logw.copy()
+        logw[rows] = -np.log(n)
+        self.pf.logw = logw
+        self.cusum[rows] = 0.0
 
     def traces(self, candidates: np.ndarray, sigma: float) -> np.ndarray:
         return pseudo_traces(candidates, self.pf.particles, self.pf.weights, sigma)

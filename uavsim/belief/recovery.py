@@ -1,0 +1,109 @@
+"""A lost track re-seeded from the bearings and the routes.
+
+When a target's particle cloud no longer explains its bearings
+(:attr:`.particle.ParticleBelief.lost`), the closed loop (:mod:`uavsim.sim`) replaces a
+share of its particles (``[filter] reseed_share``) by draws of where the latest scans say
+the target may be ("sensor resetting", [Lenser2000]):
+
+* **position**: a measured bearing, picked uniformly among the step's valid ones (the
+  target's own with probability about ``p_D / (p_D + L)``, clutter otherwise: later scans
+  weigh them), plus N(0, sigma^2) noise, and a range uniform along that ray inside the
+  area (from the observer out to the area's edge), outside every obstacle;
+* **velocity**: the speed of a particle of the old cloud, along the shortest free route
+  to the target's goal from the new position (:class:`uavsim.world.routes.GoalField`,
+  its gradient by central differences at 32 of the positions, each draw taking its
+  nearest's): a guided target follows a route to its goal, not the heading of a cloud on
+  the wrong street;
+* **height and vertical velocity**: those of the same old particle (ground targets).
+
+The draws are a proposal, not a posterior: every particle then weighs ``1 / N``
+(:meth:`.particle.ParticleBelief.reseed`) and the next scans sort the rays' wrong ranges
+and the clutter bearings out.  Nothing loops over particles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..sensing import Scan, Sensor
+from ..world.model import World
+from ..world.routes import GoalField
+
+ROUTE_POINTS = 32  # positions per target where the route's direction is computed
+ROUTE_STEP_M = 1.0  # central-difference step of the route length's gradient
+REDRAWS = 8  # rounds of redrawing a range that falls in an obstacle
+
+
+def draw(rng: np.random.Generator, cloud: np.ndarray, scans: list[Scan], observers: np.ndarray, sensor: Sensor,
+         world: World, fields: list[GoalField | None], rows: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(fresh (L, n, 6), ok (L,))``: n draws for each lost target ``rows (L,)`` from its
+    old particles ``cloud (L, N, 6)`` and the step's ``scans`` taken at ``observers (S, 3)``
+    (module docstring); ``fields[l]``: the route field to row l's goal (None: straight to
+    nothing, the old velocities are kept).  ``ok`` is False where the step has no valid
+    bearing of that target or no ray crosses free ground: those keep their cloud."""
+    bearings = np.concatenate([s.bearings[rows] for s in scans], axis=1)  # (L, S K)
+    valid = np.concatenate([s.valid[rows] for s in scans], axis=1)
+    origin = np.concatenate([np.broadcast_to(o[:2], (s.valid.shape[1], 2)) for s, o in zip(scans, observers)])
+    ok = valid.any(axis=1)
+    pick = _uniform_valid(rng, valid, n)  # (L, n) columns
+    phi = np.take_along_axis(bearings, pick, axis=1) + sensor.sigma * rng.standard_normal(pick.shape)
+    u = np.stack([np.sin(phi), np.cos(phi)], axis=-1)  # (L, n, 2): Eq. (4) bearings, north, clockwise
+    o = origin[pick]  # (L, n, 2)
+    old = cloud[np.arange(len(rows))[:, None], rng.integers(cloud.shape[1], size=pick.shape)]  # (L, n, 6)
+    t0, t1 = _ray_in_box(o, u, world.area_lo[:2], world.area_hi[:2])
+    xyz = old[..., :3].copy()
+    todo = t1 > t0
+    for _ in range(REDRAWS):
+        r = t0 + rng.random(t0.shape) * np.maximum(t1 - t0, 0.0)
+        p = o + r[..., None] * u
+        xyz[..., :2] = np.where(todo[..., None], p, xyz[..., :2])
+        todo &= world.in_obstacle(world.on_ground(xyz))
+        if not todo.any():
+            break
+    placed = (t1 > t0) & ~todo  # else the old particle stays as it was
+    ok &= placed.any(axis=1)
+    fresh = old.copy()
+    fresh[..., :2] = np.where(placed[..., None], xyz[..., :2], old[..., :2])
+    speed = np.hypot(old[..., 3], old[..., 4])
+    for i, field in enumerate(fields):
+        if field is not None and placed[i].any():
+            heading = _route_heading(rng, field, fresh[i, :, :2])
+            fresh[i, :, 3:5] = np.where(placed[i, :, None], speed[i, :, None] * heading, old[i, :, 3:5])
+    return fresh, ok
+
+
+def _uniform_valid(rng: np.random.Generator, valid: np.ndarray, n: int) -> np.ndarray:
+    """``(L, n)`` column indices drawn uniformly among each row's valid entries of ``valid
+    (L, K)`` (0 for a row with none)."""
+    cum = np.cumsum(valid, axis=1)  # (L, K)
+    target = np.floor(rng.random((len(valid), n)) * cum[:, -1:]).astype(int)  # 0 .. count - 1
+    return np.minimum((cum[:, None, :] <= target[..., None]).sum(axis=-1), valid.shape[1] - 1)
+
+
+def _ray_in_box(o: np.ndarray, u: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(t0, t1)``, each ``(...)``: the part ``o + t u, t0 <= t <= t1, t >= 0`` of each ray
+    ``o (..., 2)``, ``u (..., 2)`` inside the box ``[lo, hi]`` (slabs; ``t1 <= t0``: none)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        a, b = (lo - o) / u, (hi - o) / u
+    a = np.where(u == 0, np.where((o >= lo) & (o <= hi), -np.inf, np.inf), a)
+    b = np.where(u == 0, np.where((o >= lo) & (o <= hi), np.inf, -np.inf), b)
+    t0 = np.maximum(np.minimum(a, b).max(axis=-1), 0.0)
+    t1 = np.maximum(a, b).min(axis=-1)
+    return t0, t1
+
+
+def _route_heading(rng: np.random.Generator, field: GoalField, points: np.ndarray) -> np.ndarray:
+    """``(n, 2)`` unit directions of the shortest free route to the field's goal at
+    ``points (n, 2)``: minus the route length's gradient at :data:`ROUTE_POINTS` of them,
+    each point taking its nearest's; straight at the goal where no route is found."""
+    probe = points[rng.choice(len(points), size=min(ROUTE_POINTS, len(points)), replace=False)]
+    e = ROUTE_STEP_M * np.eye(2)
+    offsets = np.concatenate([probe + e[0], probe - e[0], probe + e[1], probe - e[1]])
+    length = field.lengths(offsets).reshape(4, -1)
+    grad = np.stack([length[0] - length[1], length[2] - length[3]], axis=-1)  # (P, 2), 2 step units
+    straight = field.nodes[0] - probe
+    good = np.isfinite(grad).all(axis=1) & (np.abs(grad).sum(axis=1) > 0)
+    head = np.where(good[:, None], -np.nan_to_num(grad, posinf=0.0, neginf=0.0), straight)
+    head /= np.maximum(np.linalg.norm(head, axis=1, keepdims=True), 1e-12)
+    nearest = np.argmin(((points[:, None, :] - probe[None]) ** 2).sum(-1), axis=1)
+    return head[nearest]
