@@ -1,0 +1,128 @@
+"""Tracking in towns: consistency, lost tracks and the UAV's policies against no information.
+
+    python benchmarks/tracking.py [--worlds osm-small,osm-medium,grid,city-100] [--targets 8]
+                                  [--variants optimized,published,stochastic-truth,fixed-sensors]
+                                  [--trials 10]
+                                  [--steps 20] [--workers 2] [--out runs/tracking] [--resume]
+    python benchmarks/tracking.py --report runs/tracking/tracking.json     # the docs' markdown table
+
+Worlds are those of ``benchmarks/towns.py`` (``osm-CROP``, ``town-K``, ``city-K``, ``grid``),
+each mission as imported or generated (its own defaults: two plans per target, track-loss
+detection at 10 nats).  A variant is a UAV policy (``optimized``, Eq. 12-13; ``lookahead``;
+``fixed-sensors``; a manoeuvre) flown with the mission's filter; ``published``: the
+optimized policy with [Papaioannou2023]'s filter as published (``filter.loss_nats = 0``,
+``filter.plan_clusters = 1``, one process noise Q); ``stochastic-truth``: the optimized
+policy against true targets that re-plan and take the process noise Q the filter assumes
+(the control for consistency: the planned truth takes no noise at all).  Every variant runs the
+same trials (trial k seeded from ``SeedSequence(seed).spawn(trials)[k]``) beside the
+no-information baseline of those trials
+(:func:`uavsim.campaign.with_baseline`), and reports what a tracking result needs: RMSE over
+the baseline's, overall and per target; lost target-trials (final error over 3
+no-information RMSEs); tracks the filter declared lost and re-seeded; position NEES (mean and
+the share of steps inside, below and above its 95% band); step seconds.
+
+Each campaign keeps its trials in ``OUT/WORLD/VARIANT`` (``--resume`` continues them), its
+summary in ``OUT/WORLD/VARIANT.json`` and its figures in ``OUT/WORLD/VARIANT.row.json``;
+``OUT/tracking.json`` holds every row in ``OUT`` (so runs of other worlds or variants into the
+same folder add up) and the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+from harness import machine, markdown_table, write
+from towns import mission_file, world_cells
+
+from uavsim.campaign import run_campaign, with_baseline
+from uavsim.config import load_mission
+
+VARIANTS = {  # name -> (planner, mission overrides); any other name is a planner with the mission as it is
+    "published": ("optimized", {"filter.loss_nats": 0.0, "filter.plan_clusters": 1, "filter.noise_scales": [1.0]}),
+    "stochastic-truth": ("optimized", {"truth": "stochastic"}),
+}
+
+
+def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, workers: int, resume: bool) -> dict:
+    """One variant's campaign summary with the no-information baseline of the same trials
+    (``OUT/baseline``, or ``OUT/baseline-stochastic`` for a stochastic truth)."""
+    planner, extra = VARIANTS.get(variant, (variant, {}))
+    m = load_mission(path, {"steps": steps, "trials": trials, **extra})
+    base = load_mission(path, {"steps": steps, "trials": trials, **({"truth": m.truth} if "truth" in extra else {})})
+    folder = "baseline" if base.truth == "planned" else f"baseline-{base.truth}"
+    return with_baseline(run_campaign(m, planner, out / variant, workers=workers, resume=resume),
+                         run_campaign(base, "baseline", out / folder, workers=workers, resume=resume))
+
+
+def figures(s: dict) -> dict:
+    """The figures of one summary with its baseline (JSON-ready)."""
+    b, nees = s["baseline"], s["nees"]["pos"]
+    ratios = np.array(b["ratio_per_target"])
+    return {"rmse": s["time_avg_rmse"], "baseline_rmse": b["time_avg_rmse"], "ratio": b["ratio"],
+            "ratio_per_target": ratios.tolist(), "targets_below_baseline": float(np.mean(ratios < 1.0)),
+            "lost_share": b["lost_share"], "lost": int(sum(b["lost_per_target"])),
+            "target_trials": s["trials"] * len(s["targets"]), "losses_declared": int(sum(s["track_loss_events"])),
+            "nees_pos_mean": float(np.mean(nees["mean"])), "nees_pos_inside": nees["inside"],
+            "nees_pos_below": nees["below"], "nees_pos_above": nees["above"],
+            "step_seconds_median": s["timing"]["total"], "truth_collisions": s["truth_collisions"]}
+
+
+def run_world(world: str, n: int, variants: list[str], args) -> list[dict]:
+    folder = Path(args.out) / f"{world}-n{n}"
+    path = mission_file(world, n, folder)
+    rows = []
+    for v in variants:
+        s = campaign(path, v, args.trials, args.steps, folder, args.workers, args.resume)
+        (folder / f"{v}.json").write_text(json.dumps(s, default=float))
+        rows.append({"world": world, "targets": n, "variant": v, "trials": args.trials, "steps": args.steps,
+                     **figures(s)})
+        (folder / f"{v}.row.json").write_text(json.dumps(rows[-1]))
+        print(f"{world} x {n} {v}: ratio {rows[-1]['ratio']:.2f}, lost {rows[-1]['lost']}, "
+              f"NEES inside {rows[-1]['nees_pos_inside']:.0%}", flush=True)
+    return rows
+
+
+def table(rows: list[dict]) -> str:
+    head = ["world", "targets", "UAV / filter", "RMSE m (no info)", "ratio", "targets below no info",
+            "lost target-trials", "re-seeded", "NEES pos mean", "NEES in band / below / above", "step s p50"]
+    body = [[r["world"], r["targets"], r["variant"], f"{r['rmse']:.1f} ({r['baseline_rmse']:.1f})",
+             f"{r['ratio']:.2f}", f"{100 * r['targets_below_baseline']:.0f}%",
+             f"{r['lost']} / {r['target_trials']}", r["losses_declared"], f"{r['nees_pos_mean']:.2f}",
+             f"{100 * r['nees_pos_inside']:.0f} / {100 * r['nees_pos_below']:.0f} / "
+             f"{100 * r['nees_pos_above']:.0f}%", f"{r['step_seconds_median']:.2f}"] for r in rows]
+    return markdown_table(head, body)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--worlds", default="osm-small,osm-medium,grid,city-100", help="NAME or NAME:N, comma-separated")
+    ap.add_argument("--targets", default="8", help="targets per world (the grid keeps its six)")
+    ap.add_argument("--variants", default="optimized,published,stochastic-truth,fixed-sensors")
+    ap.add_argument("--trials", type=int, default=10)
+    ap.add_argument("--steps", type=int, default=20)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--out", default="runs/tracking")
+    ap.add_argument("--resume", action="store_true")
+    ap.add_argument("--json", metavar="PATH", help="also write the figures and the machine here (the docs' copy)")
+    ap.add_argument("--report", metavar="JSON", help="print the markdown table of a finished run and stop")
+    args = ap.parse_args()
+    if args.report:
+        print(table(json.loads(Path(args.report).read_text())["rows"]))
+        return
+    started = machine()
+    for world, n in dict.fromkeys(world_cells(args.worlds, args.targets)):
+        run_world(world, n, args.variants.split(","), args)
+    # every row in OUT, this run's and earlier runs' (other worlds or variants) alike
+    rows = [json.loads(p.read_text()) for p in sorted(Path(args.out).glob("*/*.row.json"))]
+    result = {"settings": vars(args), "rows": rows}
+    write(Path(args.out) / "tracking.json", result, started)
+    if args.json:
+        write(Path(args.json), result, started)
+    print(table(rows))
+
+
+if __name__ == "__main__":
+    main()
