@@ -19,7 +19,9 @@ no-information baseline of those trials
 (:func:`uavsim.campaign.with_baseline`), and reports what a tracking result needs: RMSE over
 the baseline's, overall and per target; lost target-trials (final error over 3
 no-information RMSEs); tracks the filter declared lost and re-seeded; position NEES (mean and
-the share of steps inside, below and above its 95% band); step seconds.
+the share of steps inside, below and above its 95% band); the truth's credible level in the
+belief (:func:`uavsim.metrics.credible_level`: mean 0.5 and 5% outside the 95% region if
+calibrated, whatever the belief's shape); step seconds.
 
 Each campaign keeps its trials in ``OUT/WORLD/VARIANT`` (``--resume`` continues them), its
 summary in ``OUT/WORLD/VARIANT.json`` and its figures in ``OUT/WORLD/VARIANT.row.json``;
@@ -67,6 +69,8 @@ def figures(s: dict) -> dict:
             "target_trials": s["trials"] * len(s["targets"]), "losses_declared": int(sum(s["track_loss_events"])),
             "nees_pos_mean": float(np.mean(nees["mean"])), "nees_pos_inside": nees["inside"],
             "nees_pos_below": nees["below"], "nees_pos_above": nees["above"],
+            "level_mean": float(np.mean(s["calibration"]["mean"])), "level_inside": s["calibration"]["inside"],
+            "outside_95": s["calibration"]["outside_95"],
             "step_seconds_median": s["timing"]["total"], "truth_collisions": s["truth_collisions"]}
 
 
@@ -87,12 +91,14 @@ def run_world(world: str, n: int, variants: list[str], args) -> list[dict]:
 
 def table(rows: list[dict]) -> str:
     head = ["world", "targets", "UAV / filter", "RMSE m (no info)", "ratio", "targets below no info",
-            "lost target-trials", "re-seeded", "NEES pos mean", "NEES in band / below / above", "step s p50"]
+            "lost target-trials", "re-seeded", "NEES pos mean", "NEES in band / below / above",
+            "credible level mean (in band)", "truth outside 95%", "step s p50"]
     body = [[r["world"], r["targets"], r["variant"], f"{r['rmse']:.1f} ({r['baseline_rmse']:.1f})",
              f"{r['ratio']:.2f}", f"{100 * r['targets_below_baseline']:.0f}%",
              f"{r['lost']} / {r['target_trials']}", r["losses_declared"], f"{r['nees_pos_mean']:.2f}",
              f"{100 * r['nees_pos_inside']:.0f} / {100 * r['nees_pos_below']:.0f} / "
-             f"{100 * r['nees_pos_above']:.0f}%", f"{r['step_seconds_median']:.2f}"] for r in rows]
+             f"{100 * r['nees_pos_above']:.0f}%", f"{r['level_mean']:.2f} ({100 * r['level_inside']:.0f}%)",
+             f"{100 * r['outside_95']:.1f}%", f"{r['step_seconds_median']:.2f}"] for r in rows]
     return markdown_table(head, body)
 
 

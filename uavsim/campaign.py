@@ -56,7 +56,7 @@ from .sim import STAGES, Simulation
 from .truth import start_acceptance
 from .uav import BASELINE, MANOEUVRES, make_policy
 
-FORMAT = 4  # trial-file layout; a folder written in another layout is not resumed
+FORMAT = 5  # trial-file layout; a folder written in another layout is not resumed
 
 
 class CampaignError(Exception):
@@ -70,7 +70,8 @@ class TrialResult:
     ``(steps, len(STAGES))``, guidance statuses, events, and for the PCRLB the true states
     ``(steps, M, 6)``, sensor positions ``(steps, S, 3)`` and the planned truth's
     sensitivity to its start ``(steps, M, 4, 4)`` (``(0,)`` for a stochastic truth);
-    ``collisions``: truth steps that touched an obstacle (:attr:`uavsim.truth.Truth.collisions`)."""
+    ``collisions``: truth steps that touched an obstacle (:attr:`uavsim.truth.Truth.collisions`);
+    ``level``: the truth's credible level in the belief ``(steps, M)`` (:func:`uavsim.metrics.credible_level`)."""
 
     index: int
     err2: np.ndarray
@@ -84,6 +85,7 @@ class TrialResult:
     observers: np.ndarray
     sensitivity: np.ndarray
     collisions: int = 0
+    level: np.ndarray | None = None
 
 
 class trial_seeds:  # noqa: N801 (a lazy list)
@@ -233,8 +235,8 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
         info = sim.reset(seed)
         if on_step:
             on_step(info)
-        err2, trace, nees_pos, nees_state, secs, statuses, events, truth, observers, sens = ([], [], [], [], [], {},
-                                                                                            [], [], [], [])
+        err2, trace, nees_pos, nees_state, secs, statuses, events, truth, observers, sens, level = (
+            [], [], [], [], [], {}, [], [], [], [], [])
         for _ in range(mission.steps):
             info = sim.step()
             if on_step:
@@ -243,6 +245,7 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
             trace.append(np.trace(info.cov, axis1=1, axis2=2))
             nees_pos.append(metrics.state_nees(info.mean, info.cov, info.truth, metrics.POS))
             nees_state.append(metrics.state_nees(info.mean, info.cov, info.truth, metrics.STATE))
+            level.append(sim.belief.credible_level(info.truth))
             secs.append([info.seconds[k] for k in STAGES])
             truth.append(info.truth)
             observers.append(info.observers)
@@ -253,7 +256,7 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
             events += [f"step {info.t}: {e}" for e in info.events if not e.startswith("resampled")]
     return TrialResult(index, np.array(err2), np.array(trace), np.array(nees_pos), np.array(nees_state),
                        np.array(secs), statuses, tuple(events), np.stack(truth), np.stack(observers),
-                       np.array(sens), sim.truth.collisions)
+                       np.array(sens), sim.truth.collisions, np.array(level))
 
 
 _GUIDANCE: dict[str, Guidance] = {}  # per process: build each mission's models once (kept_guidance)
@@ -356,7 +359,7 @@ def save_trial(folder: Path, r: TrialResult) -> None:
     meta = np.array(json.dumps({"statuses": r.statuses, "events": list(r.events), "collisions": r.collisions}))
     np.savez(buf, index=r.index, err2=r.err2, trace=r.trace, nees_pos=r.nees_pos, nees_state=r.nees_state,
              seconds=r.seconds, truth=r.truth, observers=r.observers,
-             sensitivity=r.sensitivity, meta=meta)
+             sensitivity=r.sensitivity, level=r.level, meta=meta)
     write_atomic(folder / f"trial-{r.index:05d}.npz", buf.getvalue())
 
 
@@ -376,7 +379,7 @@ def load_trials(folder: Path, indices: range) -> dict[int, TrialResult]:
                     meta = json.loads(str(z["meta"]))
                     out[k] = TrialResult(int(z["index"]), z["err2"], z["trace"], z["nees_pos"], z["nees_state"],
                                          z["seconds"], meta["statuses"], tuple(meta["events"]), z["truth"],
-                                         z["observers"], z["sensitivity"], meta.get("collisions", 0))
+                                         z["observers"], z["sensitivity"], meta.get("collisions", 0), z["level"])
             except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
                 raise CampaignError(f"{path}: not a readable trial file ({exc}); delete it to run "
                                     "that trial again") from None
@@ -663,6 +666,7 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "mean_trace": np.stack([r.trace for r in results]).mean(axis=0).T.tolist(),
         "nees": {"pos": metrics.consistency(np.stack([r.nees_pos for r in results]), len(metrics.POS)),
                  "state": metrics.consistency(np.stack([r.nees_state for r in results]), len(metrics.STATE))},
+        "calibration": metrics.calibration(np.stack([r.level for r in results])),
         "guidance_status": dict(sorted(statuses.items())),
         "events": sum(len(r.events) for r in results),
         "track_loss_events": track_loss_events([t.name for t in mission.targets], results),

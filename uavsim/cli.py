@@ -342,6 +342,10 @@ def _print_summary(s: dict) -> None:
         print(f"  NEES {label} (dof {n['dof']}): mean {np.mean(n['mean']):.2f}, {n['level']:.0%} band "
               f"[{n['band'][0]:.2f}, {n['band'][1]:.2f}]: inside {n['inside']:.0%} of steps, "
               f"below {n['below']:.0%}, above {n['above']:.0%}")
+    c = s["calibration"]
+    print(f"  credible level of the truth (position; 0.50 and 5% if calibrated, whatever the belief's shape): "
+          f"mean {np.mean(c['mean']):.2f}, band [{c['band'][0]:.2f}, {c['band'][1]:.2f}]: inside {c['inside']:.0%} "
+          f"of steps; truth outside the belief's 95% region at {c['outside_95']:.0%} of target-steps")
     print(_nees_note(s["trials"], len(s["targets"]), s["nees"]["pos"]["level"]))
     t = s["timing"]
     print(f"  median s/step: guidance {t['guidance']:.3f}, filter {t['filter']:.3f}, planner {t['planner']:.4f}, "
@@ -357,7 +361,8 @@ def _nees_note(trials: int, targets: int, level: float) -> str:
         f"over the n = {trials} x {targets} = {n} trial-targets. For a consistent filter that average is chi-square "
         f"with n x dof degrees of freedom, divided by n: it lies in the band with probability {level:.0%}, so about "
         f"{level:.0%} of steps fall inside and the mean is near dof. Below the band the covariance is wider than the "
-        "errors (pessimistic); above, narrower (overconfident).", width=110, initial_indent="    ",
+        "errors (pessimistic); above, narrower (overconfident). The credible level does not assume a Gaussian: below "
+        "0.50 the truths sit nearer the estimate than the belief expects.", width=110, initial_indent="    ",
         subsequent_indent="    ")
 
 

@@ -100,6 +100,10 @@ class Belief(Protocol):
     def samples(self) -> np.ndarray | None:
         """``(M, N, 6)`` particles to draw (a copy), or None for a Gaussian belief."""
 
+    def credible_level(self, truth: np.ndarray) -> np.ndarray:
+        """``(M,)`` the belief's probability of a position nearer its mean than ``truth (M, 6)``
+        (:func:`uavsim.metrics.credible_level`)."""
+
 
 def make_belief(cfg: FilterConfig, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray,
                 speed_max: float, names: tuple[str, ...]) -> Belief:

@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..estimators.plkf import UPDATES
+from ..metrics import credible_level
 from ..sensing import Scan, Sensor
 from ..targets import Dynamics
 from .traces import gaussian_traces
@@ -70,3 +71,6 @@ class GaussianBelief:
 
     def samples(self) -> None:
         return None
+
+    def credible_level(self, truth: np.ndarray) -> np.ndarray:
+        return credible_level(truth, self.mean, self.cov)

@@ -35,6 +35,7 @@ import math
 
 import numpy as np
 
+from ..metrics import credible_level
 from ..sensing import Scan, Sensor, wrap_angle
 from ..targets import Dynamics
 from .traces import pseudo_traces
@@ -498,3 +499,7 @@ class ParticleBelief:
 
     def samples(self) -> np.ndarray:
         return self.pf.particles.copy()
+
+    def credible_level(self, truth: np.ndarray) -> np.ndarray:
+        mean, cov = self.pf.moments()
+        return credible_level(truth, mean, cov, self.pf.particles, self.pf.weights)
