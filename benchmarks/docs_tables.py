@@ -21,6 +21,7 @@ import budget
 import numpy as np
 import osm_import
 import towns
+import tracking
 from harness import ROOT, fill, parser, provenance, run
 from harness import markdown_table as md
 from tma_studies import tables_huang2021, tables_li2022, tables_oh2021, tables_oliva2021
@@ -313,11 +314,15 @@ def tables_memory(data: dict | None) -> dict[str, str]:
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None,
-                 runs: dict | None) -> dict[str, str]:
+                 runs: dict | None, tracked: dict | None = None) -> dict[str, str]:
     """Real and generated towns: the importer's cover (``osm_import.py``), budgets against
-    the wall clock (``budget.py``), the plan of work's CPU (``resources.py``) and guidance
-    and the closed loop in towns (``towns.py``)."""
+    the wall clock (``budget.py``), the plan of work's CPU (``resources.py``), guidance
+    and the closed loop in towns (``towns.py``) and tracking there (``tracking.py``)."""
     out = {}
+    if tracked is not None:
+        s = tracked["settings"]
+        out["towns-tracking"] = (tracking.table(tracked["rows"]) + f"\n\n{s['trials']} trials of {s['steps']} steps "
+                                 "a variant, the same trials in every row of a world. " + provenance(tracked))
     if imported is not None:
         out["towns-import"] = osm_import.table(imported["figures"]["crops"]) + "\n\n" + provenance(imported)
     if budgets is not None:
@@ -356,7 +361,8 @@ def pages() -> dict[Path, dict[str, str]]:
                                                                 cities["cities-first-plans"], list(cities.values()))},
             DOCS / "results" / "worlds.md": tables_worlds(_load(DATA / "worlds.json")),
             DOCS / "results" / "towns.md": tables_towns(_load(DATA / "osm-import.json"), _load(DATA / "budget.json"),
-                                                        _load(DATA / "plan-of-work.json"), _load(DATA / "towns.json")),
+                                                        _load(DATA / "plan-of-work.json"), _load(DATA / "towns.json"),
+                                                        _load(DATA / "tracking.json")),
             DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
                                                 **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
                                                                    "lookahead-clusters2")},

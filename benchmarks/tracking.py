@@ -13,7 +13,9 @@ detection at 10 nats).  A variant is a UAV policy (``optimized``, Eq. 12-13; ``l
 optimized policy with [Papaioannou2023]'s filter as published (``filter.loss_nats = 0``,
 ``filter.plan_clusters = 1``, one process noise Q); ``stochastic-truth``: the optimized
 policy against true targets that re-plan and take the process noise Q the filter assumes
-(the control for consistency: the planned truth takes no noise at all).  Every variant runs the
+(the control for consistency: the planned truth takes no noise at all); ``one-level`` and
+``no-loss-detection``: the optimized policy with the mission's filter less one of its
+additions (one process noise Q for every particle; no track-loss detection).  Every variant runs the
 same trials (trial k seeded from ``SeedSequence(seed).spawn(trials)[k]``) beside the
 no-information baseline of those trials
 (:func:`uavsim.campaign.with_baseline`), and reports what a tracking result needs: RMSE over
@@ -45,6 +47,8 @@ from uavsim.config import load_mission
 VARIANTS = {  # name -> (planner, mission overrides); any other name is a planner with the mission as it is
     "published": ("optimized", {"filter.loss_nats": 0.0, "filter.plan_clusters": 1, "filter.noise_scales": [1.0]}),
     "stochastic-truth": ("optimized", {"truth": "stochastic"}),
+    "one-level": ("optimized", {"filter.noise_scales": [1.0]}),  # the mission's filter less its noise levels
+    "no-loss-detection": ("optimized", {"filter.loss_nats": 0.0}),  # ... less its track-loss detection
 }
 
 
