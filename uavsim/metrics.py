@@ -25,7 +25,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
 
 POS = (0, 1)  # (x, y): the position error of Sec. VI-B
 STATE = (0, 1, 2, 3, 4, 5)  # the full state [p, v]
@@ -55,6 +54,8 @@ def state_nees(mean: np.ndarray, cov: np.ndarray, truth: np.ndarray, dims=POS) -
 def nees_band(n: int, dof: int, level: float = 0.95) -> tuple[float, float]:
     """Two-sided ``level`` band of the average of n independent chi-square(dof) values."""
     a = (1.0 - level) / 2.0
+    from scipy import stats  # here, not at the top: the beliefs import this module, the mission reader them
+
     return float(stats.chi2.ppf(a, n * dof) / n), float(stats.chi2.ppf(1.0 - a, n * dof) / n)
 
 
@@ -106,6 +107,8 @@ def calibration(levels: np.ndarray, level: float = 0.95) -> dict:
     normal approximation), the share of steps inside it, and the share of target-steps
     whose truth lies outside the belief's 95% region (5% if calibrated; JSON-ready)."""
     trials, _, m = levels.shape
+    from scipy import stats
+
     half = stats.norm.ppf(0.5 + level / 2) * np.sqrt(1.0 / (12.0 * trials * m))
     mean = levels.mean(axis=(0, 2))
     return {"mean": mean.tolist(), "band": [0.5 - half, 0.5 + half], "level": level,

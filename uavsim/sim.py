@@ -19,9 +19,9 @@ Each step t -> t+1:
 4. **UAV**: the policy moves (:mod:`.uav`: Eq. 12-13 grid moves, a manoeuvre, fixed
    sensors, no sensor), or takes the move given to :meth:`Simulation.step`;
 5. **truth moves**, then **sense and update** (Eq. 4, 9b-11) from the policy's observers;
-   a track the belief declares lost (``[filter] loss_nats``,
-   :class:`.belief.particle.ParticleBelief`) is re-seeded from the scans and the routes to
-   its goal (:mod:`.belief.recovery`) and logged as a track-loss event.
+   a track the belief declares lost (``[filter] loss_nats``, :mod:`.belief.particle`) is
+   re-seeded from the scans and the routes to its goal (:mod:`.belief.recovery`) and
+   logged as a track-loss event.
 
 Randomness: a trial gets one ``SeedSequence``; it spawns separate streams for the truth's
 process noise, the sensor, the filter, the UAV start and the truth's initial state, so
@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .belief import make_belief, recovery
+from .belief import make_belief
 from .guidance import Guidance, Plan
 from .mission import Mission
 from .sensing import Scan, observe
@@ -149,7 +149,7 @@ class Simulation:
         observers, sensor = self.policy.observers, self.policy.sensor
         scans = [observe(self.rng_sensor, sensor, self.truth.state[:, :3], o) for o in observers]
         events += self.belief.update(scans, observers, sensor)
-        if scans and getattr(self.belief, "lost", np.zeros(0)).any():
+        if scans and self.belief.lost.any():
             events += self._recover(scans, observers, sensor)
         sec["filter"] += time.perf_counter() - t5
         sec["total"] = sum(sec[k] for k in STAGES[:-1])  # the stages cover the step (prepare may run earlier)
@@ -158,20 +158,10 @@ class Simulation:
         return self._info(scans, [] if self.oracle else self.plans, moves, sec, events)
 
     def _recover(self, scans, observers, sensor) -> list[str]:
-        """Re-seed the tracks the belief declares lost (:mod:`.belief.recovery`): a
-        track-loss event per target, saying how many particles moved."""
-        rows = np.flatnonzero(self.belief.lost)
-        goals = [self.m.targets[j].goal for j in rows]
-        fields = [self._field(g) for g in goals]
-        cloud = self.belief.pf.particles[rows]
-        n = max(1, round(self.m.filter.reseed_share * cloud.shape[1]))
-        evidence = self.belief.cusum[rows]
-        fresh, ok = recovery.draw(self.belief.rng, cloud, scans, observers, sensor, self.m.world, fields, rows, n)
-        self.belief.reseed(rows[ok], fresh[ok])
-        return [f"{self.m.targets[j].name}: track lost ({e:.1f} nats against its cloud); "
-                + (f"{n} of {cloud.shape[1]} particles re-seeded along its bearings and routes" if good else
-                   "no bearing to re-seed from, kept")
-                for j, e, good in zip(rows, evidence, ok)]
+        """Re-seed the tracks the belief declares lost, each from the routes to its goal."""
+        goal = [t.goal for t in self.m.targets]
+        return self.belief.recover(scans, observers, sensor, self.m.world, lambda j: self._field(goal[j]),
+                                   self.m.filter.reseed_share)
 
     def _field(self, goal: int):
         """The route field to world goal ``goal`` (built once per simulation, when first needed)."""

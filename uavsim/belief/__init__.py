@@ -100,6 +100,14 @@ class Belief(Protocol):
     def samples(self) -> np.ndarray | None:
         """``(M, N, 6)`` particles to draw (a copy), or None for a Gaussian belief."""
 
+    @property
+    def lost(self) -> np.ndarray:
+        """``(M,)`` bool: tracks declared lost (particle beliefs with ``loss_nats > 0``)."""
+
+    def recover(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor, world, route_field,
+                share: float) -> list[str]:
+        """Re-seed the :attr:`lost` tracks from the scans (:mod:`.recovery`); track-loss events."""
+
     def credible_level(self, truth: np.ndarray) -> np.ndarray:
         """``(M,)`` the belief's probability of a position nearer its mean than ``truth (M, 6)``
         (:func:`uavsim.metrics.credible_level`)."""

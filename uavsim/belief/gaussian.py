@@ -72,5 +72,10 @@ class GaussianBelief:
     def samples(self) -> None:
         return None
 
+    @property
+    def lost(self) -> np.ndarray:
+        """(M,) no track-loss detection here: never lost."""
+        return np.zeros(len(self.mean), dtype=bool)
+
     def credible_level(self, truth: np.ndarray) -> np.ndarray:
         return credible_level(truth, self.mean, self.cov)

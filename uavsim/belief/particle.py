@@ -38,6 +38,7 @@ import numpy as np
 from ..metrics import credible_level
 from ..sensing import Scan, Sensor, wrap_angle
 from ..targets import Dynamics
+from . import recovery
 from .traces import pseudo_traces
 
 LOG_2PI = np.log(2.0 * np.pi)
@@ -475,6 +476,23 @@ class ParticleBelief:
 
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
         return self.pf.moments()
+
+    def recover(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor, world, route_field,
+                share: float) -> list[str]:
+        """Re-seed the targets declared :attr:`lost` from this step's ``scans`` taken at
+        ``observers (S, 3)`` (:func:`.recovery.draw`; ``route_field(j)``: the route field to
+        target j's goal), ``share`` of their particles each (:meth:`reseed`).  Returns a
+        track-loss event per target re-seeded; one without a bearing this step stays
+        declared lost and waits for the next scan."""
+        rows = np.flatnonzero(self.lost)
+        cloud = self.pf.particles[rows]
+        n = max(1, round(share * cloud.shape[1]))
+        evidence = self.cusum[rows]
+        fresh, ok = recovery.draw(self.rng, cloud, scans, observers, sensor, world, [route_field(j) for j in rows],
+                                  rows, n)
+        self.reseed(rows[ok], fresh[ok])
+        return [f"{self.names[j]}: track lost ({e:.1f} nats against its cloud); {n} of {cloud.shape[1]} particles "
+                "re-seeded along its bearings and routes" for j, e in zip(rows[ok], evidence[ok])]
 
     def reseed(self, rows: np.ndarray, fresh: np.ndarray) -> None:
         """Targets ``rows (L,)`` take ``fresh (L, R, 6)`` particles in place of R of their

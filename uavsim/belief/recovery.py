@@ -23,11 +23,15 @@ and the clutter bearings out.  Nothing loops over particles.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..sensing import Scan, Sensor
 from ..world.model import World
-from ..world.routes import GoalField
+
+if TYPE_CHECKING:  # the routes bring scipy and shapely, which reading a mission does not need
+    from ..world.routes import GoalField
 
 ROUTE_POINTS = 32  # positions per target where the route's direction is computed
 ROUTE_STEP_M = 1.0  # central-difference step of the route length's gradient
