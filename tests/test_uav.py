@@ -79,31 +79,3 @@ def test_operating_region_box():
 def test_paper_start_all_admissible():
     m = load_mission(PAPER)
     assert n_admissible(m.world, m.uav) == 61
-
-
-def test_minimax_takes_the_worst_targets_trace_where_eq13_sums():
-    """Traces (C = 2 candidates, M = 2 targets) [[1, 8], [6, 6]]: Eq. (13)'s sum (9 against
-    12) picks candidate 0, the worst target's trace (8 against 6) candidate 1."""
-    from uavsim.uav import decide
-
-    traces = np.array([[1.0, 8.0], [6.0, 6.0]])
-    ok = np.array([True, True])
-    assert decide(np.zeros((2, 3)), ok, lambda c: traces)[0] == 0
-    best, scores = decide(np.zeros((2, 3)), ok, lambda c: traces, np.max)
-    assert best == 1 and scores.tolist() == [8.0, 6.0]
-
-
-def test_minimax_policy_scores_are_the_largest_trace_in_the_closed_loop():
-    """One step of the paper mission: the minimax policy's scores are the candidates'
-    largest pseudo-posterior traces on the predicted belief, and it flies to the least."""
-    from uavsim.sim import Simulation
-
-    m = load_mission(PAPER, {"steps": 1, "trials": 1, "filter.particles": 300})
-    sim = Simulation(m, "minimax")
-    sim.reset(2)
-    sim.prepare()
-    cands, ok = sim.policy.moves()
-    want = sim.belief.traces(cands[ok], m.sensor.sigma).max(axis=1)
-    info = sim.step()
-    np.testing.assert_allclose(info.scores[ok], want)
-    assert np.array_equal(info.uav, cands[np.argmin(np.where(ok, info.scores, np.inf))])

@@ -96,16 +96,15 @@ def uav_start(rng: np.random.Generator, uav: UavConfig, world: World, tries: int
                        f"no free start found in {tries} draws: the operating region is (nearly) all obstacle")
 
 
-def decide(candidates: np.ndarray, admissible: np.ndarray, traces, reduce=np.sum) -> tuple[int, np.ndarray]:
+def decide(candidates: np.ndarray, admissible: np.ndarray, traces) -> tuple[int, np.ndarray]:
     """Eq. (13): index of the admissible candidate with the least summed trace (ties go
     to the lowest index; row 0 is "stay"), and the summed traces ``(C,)`` (``inf`` for
     inadmissible candidates).  ``traces(candidates)``
     gives ``(C, M)``: :func:`uavsim.belief.traces.pseudo_traces` or
-    :func:`~uavsim.belief.traces.gaussian_traces` bound to the beliefs.  ``reduce``: how
-    the targets' traces combine (``np.max``: the worst target's, :class:`Minimax`)."""
+    :func:`~uavsim.belief.traces.gaussian_traces` bound to the beliefs."""
     total = np.full(len(candidates), np.inf)
     if admissible.any():
-        total[admissible] = reduce(traces(candidates[admissible]), axis=1)
+        total[admissible] = traces(candidates[admissible]).sum(axis=1)
     return int(np.argmin(total)), total
 
 
@@ -138,14 +137,12 @@ class GridOptimizer(OneUav):
         cands = candidates(self.position, self.m.uav)
         return cands, admissible(self.position, cands, self.m.world, self.m.uav)
 
-    reduce = staticmethod(np.sum)  # Eq. (13) sums the targets' traces
-
     def choose(self, belief, forecast: list | None = None) -> tuple[np.ndarray, np.ndarray, int]:
         """Eq. (13) on the predicted ``belief``: the candidates, their summed traces
         (``inf``: not admissible) and the index of the best.  ``forecast`` (the targets'
         plans, see :meth:`act`) is not needed one step ahead."""
         cands, ok = self.moves()
-        best, scores = decide(cands, ok, lambda c: belief.traces(c, self.sensor.sigma), self.reduce)
+        best, scores = decide(cands, ok, lambda c: belief.traces(c, self.sensor.sigma))
         return cands, scores, best
 
     def act(self, t: int, belief, action: int | None = None, forecast: list | None = None
@@ -164,12 +161,3 @@ class GridOptimizer(OneUav):
         if np.isfinite(scores[best]):
             self.position = cands[best]
         return cands, scores
-
-
-class Minimax(GridOptimizer):
-    """The ``minimax`` policy: Eq. (13) with the worst target's pseudo-posterior trace in
-    place of the sum, so the UAV moves for the target it knows least about (a sum lets
-    near, well-seen targets outvote a far one whose uncertainty grows)."""
-
-    name = "minimax"
-    reduce = staticmethod(np.max)
