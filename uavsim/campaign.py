@@ -245,7 +245,7 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
             trace.append(np.trace(info.cov, axis1=1, axis2=2))
             nees_pos.append(metrics.state_nees(info.mean, info.cov, info.truth, metrics.POS))
             nees_state.append(metrics.state_nees(info.mean, info.cov, info.truth, metrics.STATE))
-            level.append(sim.belief.credible_level(info.truth))
+            level.append(sim.belief.credible_level(info.truth, info.mean, info.cov))
             secs.append([info.seconds[k] for k in STAGES])
             truth.append(info.truth)
             observers.append(info.observers)

@@ -108,9 +108,10 @@ class Belief(Protocol):
                 share: float) -> list[str]:
         """Re-seed the :attr:`lost` tracks from the scans (:mod:`.recovery`); track-loss events."""
 
-    def credible_level(self, truth: np.ndarray) -> np.ndarray:
+    def credible_level(self, truth: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
         """``(M,)`` the belief's probability of a position nearer its mean than ``truth (M, 6)``
-        (:func:`uavsim.metrics.credible_level`)."""
+        (:func:`uavsim.metrics.credible_level`); ``mean (M, 6)``, ``cov (M, 6, 6)``: its moments
+        (:meth:`moments`, which the caller has already)."""
 
 
 def make_belief(cfg: FilterConfig, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray,

@@ -77,5 +77,5 @@ class GaussianBelief:
         """(M,) no track-loss detection here: never lost."""
         return np.zeros(len(self.mean), dtype=bool)
 
-    def credible_level(self, truth: np.ndarray) -> np.ndarray:
-        return credible_level(truth, self.mean, self.cov)
+    def credible_level(self, truth: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
+        return credible_level(truth, mean, cov)

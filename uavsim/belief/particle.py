@@ -518,6 +518,5 @@ class ParticleBelief:
     def samples(self) -> np.ndarray:
         return self.pf.particles.copy()
 
-    def credible_level(self, truth: np.ndarray) -> np.ndarray:
-        mean, cov = self.pf.moments()
+    def credible_level(self, truth: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
         return credible_level(truth, mean, cov, self.pf.particles, self.pf.weights)
