@@ -1,20 +1,34 @@
 """Campaigns: identical numbers for 1 worker, 2 workers and a Dask cluster; trial files
-that survive a SIGKILL; progress output; sweeps."""
+that survive a SIGKILL; progress output; sweeps.  A campaign folder is one campaign: trial
+files carry their campaign's key and index and are checked when read (damaged or foreign
+ones set aside, never summed), one writer at a time, no manifest no reuse, strict JSON,
+output paths that never collide; and failures that end a campaign (a killed worker, a Dask
+cluster that does not answer or loses its workers, a recording that cannot be written) end
+it with one line, the finished trials kept."""
 
 import io
 import json
 import os
+import shutil
 import signal
+import socket
 import subprocess
 import sys
+import textwrap
+import threading
 import time
+import warnings
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from uavsim.campaign import CampaignError, run_campaign
+from uavsim import campaign
+from uavsim.campaign import CampaignError, CampaignFailed, held, load_trials, run_campaign, trial_key
 from uavsim.cli import main
 from uavsim.config import load_mission
+from uavsim.files import NotFinite, write_json
 from uavsim.progress import Progress
 
 from .conftest import PAPER
@@ -196,3 +210,279 @@ def test_sweep_writes_table_and_plot(tmp_path, capsys):
     assert json.loads((out / "sensor.clutter_rate=2" / "summary.json").read_text())["clutter_rate"] == 2.0
     assert main(["sweep", mission, "--set", "sensor.clutter_rate=1,-1", "--out", str(out / "bad")]) == 2
     assert "sensor.clutter_rate: must be in [0, 100] per scan, got -1" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------- one folder, one campaign
+@pytest.fixture(scope="module")
+def made(tmp_path_factory):
+    """A small mission, and a finished 2-trial campaign of it (seed 5) with its clean summary."""
+    root = tmp_path_factory.mktemp("made")
+    mission = write_small_mission(root)
+    out = root / "clean"
+    args = ["run", str(mission), "--trials", "2", "--steps", "2", "--workers", "1", "--quiet", "--seed", "5"]
+    assert main([*args, "--out", str(out)]) == 0
+    return mission, args, out, json.loads((out / "summary.json").read_text())
+
+
+def copy(made, tmp_path):
+    mission, args, out, summary = made
+    dest = tmp_path / "c"
+    shutil.copytree(out, dest)
+    return dest
+
+
+def test_a_second_writer_is_refused_naming_the_holder(made, tmp_path, capsys):
+    """Two runs into one folder (the second started while the first writes): the second is
+    refused with one line naming the first's process, and nothing of it is written."""
+    mission, args, _, _ = made
+    out = tmp_path / "busy"
+    holder = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
+        import sys, time
+        from uavsim.campaign import campaign_lock
+        with campaign_lock({str(out)!r}):
+            print("held", flush=True)
+            time.sleep(60)
+        """)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        assert main([*args[:-1], "6", "--out", str(out)]) == 2
+        err = capsys.readouterr().err.strip()
+        assert err == (f"error: {out} is in use: another uavsim run (process {holder.pid}) is writing its campaign "
+                       "there; wait for it to end, or choose another --out"), err
+        assert not (out / "trials").exists() and not (out / "summary.json").exists()
+    finally:
+        holder.kill()
+        holder.wait()
+    assert main([*args[:-1], "6", "--out", str(out)]) == 0  # the kernel released the killed holder's lock
+
+
+def test_no_manifest_no_reuse(made, tmp_path, capsys):
+    """A folder whose manifests were deleted: a run of another seed is refused (it used to
+    sum the seed-5 trials as its own); --fresh replaces them and equals a clean run."""
+    mission, args, _, _ = made
+    out = copy(made, tmp_path)
+    (out / "campaign.json").unlink()
+    (out / "baseline" / "campaign.json").unlink()
+    argv = [a if a != "5" else "2023" for a in args] + ["--out", str(out)]
+    assert main(argv) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"error: {out} holds another campaign, not this run's (no campaign.json says which campaign its trial files "
+        "belong to): choose another --out, or pass --fresh to replace it")
+    assert main(argv + ["--fresh"]) == 0
+    assert main([*argv[:-1], str(tmp_path / "clean")]) == 0
+    a, b = (json.loads((d / "summary.json").read_text()) for d in (out, tmp_path / "clean"))
+    assert results(a) == results(b) and a["seed"] == 2023
+
+
+def nan_copy(src, dest):
+    """``src`` rewritten with one NaN in its squared errors (a well-formed file)."""
+    with np.load(src) as z:
+        arrays = {k: z[k] for k in z.files}
+    arrays["err2"] = arrays["err2"].copy()
+    arrays["err2"][0, 0] = np.nan
+    np.savez(dest, **arrays)
+
+
+@pytest.mark.parametrize("damage", ["copied", "empty", "nan", "foreign"])
+def test_a_damaged_or_foreign_trial_file_is_set_aside_and_run_again(made, tmp_path, capsys, damage):
+    """trial-00000 copied over trial-00001 (its stored index says 0), a 0-byte file (it
+    raised EOFError), a NaN in a well-formed file (it was summed: bare NaN in the summary),
+    a trial of another seed's campaign: each is named, moved to set-aside/, run again; the
+    summary equals the clean one."""
+    mission, args, clean, summary = made
+    out = copy(made, tmp_path)
+    target = out / "trials" / "trial-00001.npz"
+    if damage == "copied":
+        shutil.copy(out / "trials" / "trial-00000.npz", target)
+    elif damage == "empty":
+        target.write_bytes(b"")
+    elif damage == "nan":
+        nan_copy(target, target.with_suffix(".tmp.npz"))
+        os.replace(target.with_suffix(".tmp.npz"), target)
+    else:
+        other = tmp_path / "other"
+        assert main([a if a != "5" else "6" for a in args] + ["--out", str(other)]) == 0
+        shutil.copy(other / "trials" / "trial-00001.npz", target)
+    damaged = target.read_bytes()
+    capsys.readouterr()
+    assert main([*args, "--out", str(out)]) == 0
+    err = capsys.readouterr().err.strip().splitlines()
+    why = {"copied": "holds trial 0, not trial 1 as its name says", "empty": "not a readable trial file (EOFError",
+           "nan": "holds values that are not finite (err2)",
+           "foreign": "written by another campaign (its key is not this campaign's)"}[damage]
+    assert len(err) == 1 and err[0].startswith(f"warning: {target}: {why}"), err
+    assert err[0].endswith(f"moved to {out / 'set-aside' / 'trial-00001.npz'} and not summed: trial 1 runs again")
+    assert (out / "set-aside" / "trial-00001.npz").read_bytes() == damaged
+    assert results(json.loads((out / "summary.json").read_text())) == results(summary)
+
+
+def test_summaries_are_strict_json(tmp_path):
+    """JSON has no NaN: a summary holding one is refused, naming the key, and not written."""
+    with pytest.raises(NotFinite, match=r"baseline.ratio_per_target\[1\] is nan, which JSON cannot hold"):
+        write_json(tmp_path / "s.json", {"trials": 2, "baseline": {"ratio_per_target": [0.5, float("nan")]}})
+    assert not (tmp_path / "s.json").exists()
+    write_json(tmp_path / "s.json", {"x": [1.0, None]})
+    assert json.loads((tmp_path / "s.json").read_text()) == {"x": [1.0, None]}
+
+
+def test_output_paths_never_come_from_values_or_collide(made, tmp_path, capsys):
+    mission, args, _, _ = made
+    out = tmp_path / "o"
+    assert main([*args, "--out", str(out), "--record", str(out / "summary.json")]) == 2
+    assert capsys.readouterr().err.strip() == (f"error: --record {out / 'summary.json'}: the run writes summary.json "
+                                               f"in --out {out}; record elsewhere")
+    assert main([*args, "--out", str(out), "--record", str(out / "trials" / "t.rrd")]) == 2
+    assert "the run writes trials in --out" in capsys.readouterr().err
+    sweep = tmp_path / "s"
+    assert main(["sweep", str(mission), "--set", "description=a/../../../escape,a b", "--trials", "1", "--steps", "1",
+                 "--workers", "1", "--quiet", "--out", str(sweep)]) == 0
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["s"]  # nothing made beside it, nor above:
+    assert not (tmp_path.parent / "escape").exists() and not (tmp_path / "escape").exists()
+    assert sorted(p.name for p in sweep.iterdir() if p.is_dir()) == ["description=a_.._.._.._escape",
+                                                                      "description=a_b"]
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["sweep", "{m}", "--set", "steps=3", "--steps", "2", "--out", "{o}"],
+     "--set steps=... and --steps both set steps: give one"),
+    (["compare", "{m}", "--planners", "circle,circle", "--out", "{o}"],
+     "--planners: circle given twice; give each planner once"),
+    (["run", "{m}", "--out", ""], "--out: empty; give a folder"),
+    (["run", "{m}", "--out", "{o}", "--record-trial", "1"],
+     "--record-trial and --record-particles say what --record writes: give --record FILE.rrd too"),
+    (["run", "{m}", "--out", "{o}", "--record", "/dev/full"],
+     "--record /dev/full: is not a regular file (a device or a pipe); choose a file"),
+])
+def test_arguments_that_used_to_be_taken_silently(made, tmp_path, capsys, argv, said):
+    mission = made[0]
+    argv = [a.format(m=mission, o=tmp_path / "o") for a in argv]
+    assert main([*argv, "--trials", "1", "--quiet"]) == 2
+    assert capsys.readouterr().err.strip() == f"error: {said}"
+    assert not (tmp_path / "o").exists()
+
+
+def test_env_refuses_an_unwritable_record_path(tmp_path):
+    pytest.importorskip("gymnasium")
+    from uavsim.env import UavsimEnv
+
+    (tmp_path / "f").write_text("")
+    with pytest.raises(ValueError, match=f"record_path {tmp_path / 'f' / 'x.rrd'}: cannot be written"):
+        UavsimEnv(render_mode="rerun", record_path=tmp_path / "f" / "x.rrd")
+
+
+def test_a_killed_worker_is_one_line_and_the_campaign_resumes(made, tmp_path):
+    """SIGKILL one of two workers (as the out-of-memory killer does): one line saying so,
+    which trials were running and how to resume, exit 1, no traceback; the finished trials
+    are kept and the resumed campaign equals an uninterrupted one."""
+    mission = made[0]
+    args = [str(mission), "--trials", "6", "--steps", "4", "--workers", "2", "--quiet"]
+    out = tmp_path / "k"
+    proc = subprocess.Popen([sys.executable, "-m", "uavsim", "run", *args, "--out", str(out)],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 300
+    while not list((out / "trials").glob("trial-*.npz")) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    children = open(f"/proc/{proc.pid}/task/{proc.pid}/children").read().split()
+    workers = [int(c) for c in children if b"spawn_main" in open(f"/proc/{c}/cmdline", "rb").read()]
+    assert workers, children
+    os.kill(workers[0], signal.SIGKILL)
+    err = proc.stderr.read().strip()
+    assert proc.wait(timeout=60) == 1
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith("error: a worker process was killed by SIGKILL (as the out-of-memory killer does) while "
+                          "trial"), err
+    assert err.endswith(f"finished trials are kept in {out}: run the same command again to resume"), err
+    kept = len(list((out / "trials").glob("trial-*.npz")))
+    assert f"the {kept} finished trials" in err and 1 <= kept < 6
+    assert main(["run", *args, "--out", str(out)]) == 0
+    assert main(["run", *args, "--out", str(tmp_path / "whole")]) == 0
+    a, b = (json.loads((d / "summary.json").read_text()) for d in (out, tmp_path / "whole"))
+    assert results(a) == results(b)
+
+
+def test_a_listener_that_is_not_dask_is_a_timeout(monkeypatch):
+    """It used to wait for ever: now the connection waits CONNECT_SECONDS and says so."""
+    pytest.importorskip("distributed", reason="pip install 'uavsim[dask]'")
+    monkeypatch.setattr(campaign, "CONNECT_SECONDS", 2.0)
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen()
+        port = server.getsockname()[1]
+        t0 = time.monotonic()
+        with pytest.raises(CampaignError, match=f"--scheduler tcp://127.0.0.1:{port}: no Dask scheduler answered "
+                                                "within 2 s"):
+            run_campaign(small(2, 2), "optimized", scheduler=f"tcp://127.0.0.1:{port}")
+        assert time.monotonic() - t0 < 30  # bounded (the timeout plus the join), not a hang
+
+
+def test_a_dask_cluster_that_loses_its_workers_ends_the_campaign(monkeypatch, tmp_path):
+    """The only worker gone mid-campaign: it used to wait for ever; now CampaignFailed after
+    NO_WORKER_SECONDS, naming the running trials, the finished ones kept."""
+    distributed = pytest.importorskip("distributed", reason="pip install 'uavsim[dask]'")
+    monkeypatch.setattr(campaign, "NO_WORKER_SECONDS", 2.0)
+    m = small(10, 8)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        def remove() -> None:
+            while not list((tmp_path / "d" / "trials").glob("trial-*.npz")):
+                time.sleep(0.05)
+            cluster.scale(0)
+
+        threading.Thread(target=remove, daemon=True).start()
+        with pytest.raises(CampaignFailed) as info:
+            run_campaign(m, "optimized", out=tmp_path / "d", scheduler=cluster.scheduler_address)
+    said = str(info.value)
+    assert said.startswith(f"the Dask scheduler {cluster.scheduler_address} has had no worker (or not answered) for "
+                           "2 s while trial"), said
+    kept = len(list((tmp_path / "d" / "trials").glob("trial-*.npz")))
+    assert said.endswith(f"the {kept} finished trials are kept in {tmp_path / 'd'}: run the same command again to "
+                         "resume") and kept >= 1
+
+
+# ------------------------------------------------------------- random damage (hypothesis)
+DAMAGE = st.one_of(
+    st.tuples(st.just("flip"), st.integers(0, 10**6), st.integers(1, 255)),
+    st.tuples(st.just("truncate"), st.integers(0, 10**6), st.just(0)),
+    st.tuples(st.just("swap"), st.just(0), st.just(0)),
+    st.tuples(st.just("manifest"), st.integers(0, 10**6), st.integers(1, 255)),
+)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(damage=st.lists(DAMAGE, min_size=1, max_size=3))
+def test_random_damage_is_refused_or_recovered_never_summed(made, tmp_path_factory, damage):
+    """Bytes flipped or cut anywhere in trial files or the manifest, files swapped: reading
+    the folder either refuses it (CampaignError) or returns trials that are exactly the
+    ones written; a damaged trial is set aside, never returned."""
+    mission, _, clean, _ = made
+    m = load_mission(mission, {"trials": 2, "steps": 2, "seed": 5})
+    key = trial_key(m, "optimized")
+    original = load_trials(clean / "trials", range(2), key)
+    out = tmp_path_factory.mktemp("damaged") / "c"
+    shutil.copytree(clean, out)
+    files = [out / "trials" / f"trial-{k:05d}.npz" for k in range(2)]
+    for kind, at, byte in damage:
+        if kind == "swap":
+            a, b = (f.read_bytes() for f in files)
+            files[0].write_bytes(b)
+            files[1].write_bytes(a)
+            continue
+        path = out / "campaign.json" if kind == "manifest" else files[at % 2]
+        data = bytearray(path.read_bytes())
+        i = at % len(data) if data else 0
+        if kind == "truncate":
+            data = data[:i]
+        elif data:
+            data[i] ^= byte
+        path.write_bytes(bytes(data))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", campaign.CampaignWarning)
+        try:
+            held(out, m, "optimized")
+            got = load_trials(out / "trials", range(2), set_aside=True)
+        except CampaignError:
+            return  # refused, with a message
+    for k, r in got.items():
+        for name in campaign.NUMBERS:
+            np.testing.assert_array_equal(getattr(r, name), getattr(original[k], name))
+        assert r.index == k and r.events == original[k].events and r.statuses == original[k].statuses
+

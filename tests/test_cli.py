@@ -129,8 +129,11 @@ def test_resume_on_broken_folders(capsys, tmp_path):
     corrupt = tmp_path / "corrupt"
     manifest(corrupt)
     (corrupt / "trials" / "trial-00000.npz").write_bytes(b"PK\x03\x04 truncated")
-    assert main(["run", M, *QUICK, "--out", str(corrupt), "--resume"]) == 2
-    assert "trial-00000.npz: not a readable trial file" in one_error(capsys, str(corrupt))
+    assert main(["run", M, *QUICK, "--out", str(corrupt), "--resume"]) == 0  # set aside, run again
+    warned = capsys.readouterr().err.strip()
+    assert warned.startswith(f"warning: {corrupt / 'trials' / 'trial-00000.npz'}: not a readable trial file"), warned
+    assert warned.endswith(f"moved to {corrupt / 'set-aside' / 'trial-00000.npz'} and not summed: trial 0 runs again")
+    assert (corrupt / "set-aside" / "trial-00000.npz").read_bytes() == b"PK\x03\x04 truncated"  # kept, not summed
 
 
 @pytest.mark.parametrize("args, message", [

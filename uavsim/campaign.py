@@ -17,6 +17,18 @@
   fingerprint; the trial count may differ).  :func:`held` says what a folder holds
   before a run: the command line reuses a finished campaign of the same fingerprint,
   resumes an unfinished one, and refuses another one, saying what differs.
+* **One folder, one campaign.** Every trial file carries its index and its campaign's
+  key (:func:`trial_key`), and is checked whenever it is read: a file that is
+  unreadable, holds another index or another campaign's trial, or a value that is not
+  finite, is named, moved to ``DIR/set-aside/`` and run again, never summed.  Trial
+  files without a ``campaign.json`` are not reused.  While a campaign writes ``DIR`` it
+  holds ``DIR/campaign.lock`` (:func:`campaign_lock`): a second run there is refused,
+  naming the first one's process.
+* **Failures.** A local worker that dies (the out-of-memory killer's SIGKILL), a Dask
+  scheduler that does not answer within :data:`CONNECT_SECONDS`, or a cluster without
+  workers for :data:`NO_WORKER_SECONDS`, ends the campaign with :class:`CampaignFailed`:
+  one line saying what happened, which trials were running, that the finished ones
+  are kept, and how to resume.
 * **Metrics** (:mod:`.metrics`): the RMSE of Sec. VI-B per step and target, the
   per-trial mean squared errors (for paired statistics), the average NEES of the position
   (x, y) and of the full state with their 95% chi-square bands; the posterior Cramer-Rao
@@ -37,8 +49,10 @@ import os
 import signal
 import threading
 import time
+import warnings
 import zipfile
-from concurrent.futures import ALL_COMPLETED, FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import ALL_COMPLETED, FIRST_COMPLETED, BrokenExecutor, ProcessPoolExecutor, wait
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass, fields, is_dataclass, replace
 from multiprocessing import get_context
 from pathlib import Path
@@ -56,11 +70,25 @@ from .sim import STAGES, Simulation
 from .truth import start_acceptance
 from .uav import BASELINE, MANOEUVRES, make_policy
 
-FORMAT = 5  # trial-file layout; a folder written in another layout is not resumed
+try:
+    import fcntl
+except ImportError:  # Windows: campaign folders are not locked
+    fcntl = None
+
+FORMAT = 6  # trial-file layout; a folder written in another layout is not resumed
 
 
 class CampaignError(Exception):
     """A campaign folder or request that cannot be used (reported as a usage error)."""
+
+
+class CampaignFailed(CampaignError):
+    """A campaign that started and could not finish (a worker died, a Dask cluster lost
+    its workers): the trials finished before are kept in its folder."""
+
+
+class CampaignWarning(UserWarning):
+    """Something a campaign did that its user should know: a trial file set aside."""
 
 
 @dataclass(frozen=True)
@@ -354,36 +382,114 @@ def _fingerprinted(mission: Mission, planner: str) -> Mission:
     return mission
 
 
-def save_trial(folder: Path, r: TrialResult) -> None:
+NUMBERS = ("err2", "trace", "nees_pos", "nees_state", "seconds", "truth", "observers", "sensitivity", "level")
+
+
+def _not_finite(r: TrialResult) -> list[str]:
+    return [name for name in NUMBERS if not np.isfinite(getattr(r, name)).all()]
+
+
+def save_trial(folder: Path, r: TrialResult, key: str) -> None:
+    """Write trial ``r`` of the campaign of :func:`trial_key` ``key`` to ``folder`` (atomically).
+
+    Raises
+    ------
+    CampaignFailed when the trial holds a value that is not finite (a defect: nothing
+    non-finite is ever written or summed).
+    """
+    bad = _not_finite(r)
+    if bad:
+        raise CampaignFailed(f"trial {r.index} produced values that are not finite ({', '.join(bad)}); it was not "
+                             "written: this is a defect of uavsim, please report it with the mission and the seed")
     buf = io.BytesIO()
-    meta = np.array(json.dumps({"statuses": r.statuses, "events": list(r.events), "collisions": r.collisions}))
+    meta = np.array(json.dumps({"statuses": r.statuses, "events": list(r.events), "collisions": r.collisions,
+                                "fingerprint": key, "format": FORMAT}))
     np.savez(buf, index=r.index, err2=r.err2, trace=r.trace, nees_pos=r.nees_pos, nees_state=r.nees_state,
              seconds=r.seconds, truth=r.truth, observers=r.observers,
              sensitivity=r.sensitivity, level=r.level, meta=meta)
     write_atomic(folder / f"trial-{r.index:05d}.npz", buf.getvalue())
 
 
-def load_trials(folder: Path, indices: range) -> dict[int, TrialResult]:
-    """The finished trials among ``indices`` (files of other campaigns' sizes are kept).
+class _Unusable(Exception):
+    """Why a trial file cannot be summed."""
+
+
+def _read_trial(path: Path, k: int, key: str | None) -> TrialResult:
+    """Trial ``k`` from ``path``, checked: readable, holding trial ``k`` of the campaign of
+    :func:`trial_key` ``key`` (unchecked when None), every number finite; else :class:`_Unusable`."""
+    try:
+        with np.load(path) as z:
+            meta = json.loads(str(z["meta"]))
+            r = TrialResult(int(z["index"]), z["err2"], z["trace"], z["nees_pos"], z["nees_state"],
+                            z["seconds"], meta["statuses"], tuple(meta["events"]), z["truth"],
+                            z["observers"], z["sensitivity"], meta.get("collisions", 0), z["level"])
+    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile) as exc:
+        raise _Unusable(f"not a readable trial file ({type(exc).__name__}: {exc})") from None
+    if r.index != k:
+        raise _Unusable(f"holds trial {r.index}, not trial {k} as its name says")
+    if key is not None and meta.get("fingerprint") != key:
+        raise _Unusable("written by another campaign (its key is not this campaign's)")
+    try:
+        bad = _not_finite(r)
+    except TypeError:  # numbers that are not numbers
+        bad = ["its arrays"]
+    if bad:
+        raise _Unusable(f"holds values that are not finite ({', '.join(bad)})")
+    return r
+
+
+def load_trials(folder: Path, indices: range, key: str | None = None, set_aside: bool = False
+                ) -> dict[int, TrialResult]:
+    """The finished trials among ``indices`` in the trials folder ``folder``, each checked
+    (:func:`_read_trial`) against the :func:`trial_key` ``key`` (default: the one its
+    campaign's ``campaign.json`` holds).  A file that fails the check is never returned: with
+    ``set_aside``, it is moved to ``set-aside/`` beside ``folder`` with a
+    :class:`CampaignWarning` saying which and why (its trial then runs again).
 
     Raises
     ------
-    CampaignError for a trial file that cannot be read (it names the file to delete).
+    CampaignError for a file that fails the check when not ``set_aside`` (it names the
+    file and why), or a folder without a readable ``campaign.json`` when ``key`` is None.
     """
+    folder = Path(folder)
+    if key is None:
+        key = _manifest_key(folder.parent)
     out = {}
     for k in indices:
         path = folder / f"trial-{k:05d}.npz"
-        if path.exists():
-            try:
-                with np.load(path) as z:
-                    meta = json.loads(str(z["meta"]))
-                    out[k] = TrialResult(int(z["index"]), z["err2"], z["trace"], z["nees_pos"], z["nees_state"],
-                                         z["seconds"], meta["statuses"], tuple(meta["events"]), z["truth"],
-                                         z["observers"], z["sensitivity"], meta.get("collisions", 0), z["level"])
-            except (OSError, ValueError, KeyError, zipfile.BadZipFile) as exc:
-                raise CampaignError(f"{path}: not a readable trial file ({exc}); delete it to run "
-                                    "that trial again") from None
+        if not path.exists():
+            continue
+        try:
+            out[k] = _read_trial(path, k, key)
+        except _Unusable as exc:
+            if not set_aside:
+                raise CampaignError(f"{path}: {exc}; delete it to run that trial again") from None
+            where = _put_aside(path)
+            warnings.warn(f"{path}: {exc}; moved to {where} and not summed: trial {k} runs again",
+                          CampaignWarning, stacklevel=2)
     return out
+
+
+def _manifest_key(out: Path) -> str:
+    try:
+        key = json.loads((out / "campaign.json").read_text()).get("trial_key")
+    except (OSError, ValueError, AttributeError):
+        key = None
+    if not isinstance(key, str):
+        raise CampaignError(f"{out / 'campaign.json'}: missing or not a campaign manifest, so nothing says which "
+                            "campaign the trial files belong to")
+    return key
+
+
+def _put_aside(path: Path) -> Path:
+    """Move ``path`` into ``set-aside/`` beside its folder (never over another file)."""
+    shelf = path.parent.parent / "set-aside"
+    shelf.mkdir(exist_ok=True)
+    where, n = shelf / path.name, 1
+    while where.exists():
+        where, n = shelf / f"{path.stem}.{n}{path.suffix}", n + 1
+    os.replace(path, where)
+    return where
 
 
 def _prepare_folder(out: Path, mission: Mission, planner: str, resume: bool) -> Path:
@@ -402,7 +508,15 @@ def _prepare_folder(out: Path, mission: Mission, planner: str, resume: bool) -> 
 
 def _manifest(mission: Mission, planner: str) -> dict:
     return {"mission": str(mission.path), "planner": planner, "steps": mission.steps, "seed": mission.seed,
-            "fingerprint": fingerprint(mission, planner), "format": FORMAT, "settings": settings(mission, planner)}
+            "fingerprint": fingerprint(mission, planner), "trial_key": trial_key(mission, planner), "format": FORMAT,
+            "settings": settings(mission, planner)}
+
+
+def trial_key(mission: Mission, planner: str) -> str:
+    """What every trial file of a campaign carries and is checked against: the
+    fingerprint less the :data:`COSMETIC` settings (a reworded description keeps the
+    campaign's trials, as it keeps its folder)."""
+    return fingerprint(replace(mission, description=""), planner)
 
 
 COMPARED = ("planner", "steps", "seed", "fingerprint")  # manifest keys that must match to resume
@@ -419,8 +533,10 @@ def _existing(out: Path) -> tuple[dict, list[Path]] | None:
     if trials.exists() and not trials.is_dir():
         raise CampaignError(f"{trials} is a file, but the campaign keeps its trials in a folder of that name")
     files = list(trials.glob("trial-*.npz"))
-    if not (path.exists() and files):
+    if not files:
         return None
+    if not path.exists():  # no manifest, no reuse: nothing says whose trials these are
+        return {}, files
     try:
         old = json.loads(path.read_text())
     except (json.JSONDecodeError, UnicodeDecodeError):
@@ -432,6 +548,8 @@ def _existing(out: Path) -> tuple[dict, list[Path]] | None:
 
 def _difference(old: dict, new: dict) -> str:
     """What differs between the manifest ``old`` and this run's ``new`` ("" if nothing)."""
+    if not old:
+        return "no campaign.json says which campaign its trial files belong to"
     if old.get("format") != FORMAT:
         return (f"trials written by another uavsim version: trial format {old.get('format', 1)}, "
                 f"this one writes {FORMAT}")
@@ -492,6 +610,60 @@ def held(out: Path, mission: Mission, planner: str) -> Held | None:
     return Held(len(files) if differs else sum(k < mission.trials for k in indices), differs)
 
 
+LOCK = "campaign.lock"  # in a campaign folder: held by the process writing it
+_LOCKS: dict[Path, list] = {}  # the campaign locks this process holds: lock path -> [open file, depth]
+
+
+@contextmanager
+def campaign_lock(out: Path):
+    """Hold the lock of the campaign folder ``out`` while a block writes it: an OS file
+    lock on ``out/campaign.lock`` (``flock``: the kernel releases it when this process
+    ends, however it ends, a SIGKILL included) holding the holder's PID.  Re-entrant within
+    a process.  Where the OS has no ``flock`` (Windows), nothing is locked.
+
+    Raises
+    ------
+    CampaignError when another process holds it (naming that process), or ``out`` cannot
+    be made.
+    """
+    path = Path(os.path.abspath(Path(out) / LOCK))
+    if path in _LOCKS or fcntl is None:
+        if path in _LOCKS:
+            _LOCKS[path][1] += 1
+        try:
+            yield
+        finally:
+            if path in _LOCKS:
+                _LOCKS[path][1] -= 1
+        return
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fh = open(path, "a+")
+    except OSError as exc:
+        raise CampaignError(f"{out}: cannot use this folder: {exc.filename or out}: {exc.strerror or exc}") from None
+    try:
+        fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        fh.seek(0)
+        holder = fh.read().strip() or "unknown"
+        fh.close()
+        raise CampaignError(f"{out} is in use: another uavsim run (process {holder}) is writing its campaign there; "
+                            "wait for it to end, or choose another --out") from None
+    fh.seek(0)
+    fh.truncate()
+    fh.write(f"{os.getpid()}\n")
+    fh.flush()
+    _LOCKS[path] = [fh, 1]
+    try:
+        yield
+    finally:
+        _LOCKS[path][1] -= 1
+        if not _LOCKS[path][1]:
+            del _LOCKS[path]
+            fcntl.flock(fh, fcntl.LOCK_UN)
+            fh.close()
+
+
 def clear(out: Path) -> None:
     """Delete the campaign ``out`` holds: its manifest and trial files (nothing else)."""
     for path in [Path(out) / "campaign.json", *(Path(out) / "trials").glob("trial-*.npz"),
@@ -505,12 +677,12 @@ def _prepare(out: Path, mission: Mission, planner: str, resume: bool) -> Path:
     found = _existing(out)
     if found is not None:
         old, files = found
-        if not resume:
-            raise CampaignError(f"{out} already holds a campaign ({len(files)} trials done): pass --resume to "
-                                "continue it, or choose another --out")
         differs = _difference(old, manifest)
         if differs:
             raise CampaignError(f"{out} holds a different campaign ({differs}): use another --out")
+        if not resume:
+            raise CampaignError(f"{out} already holds a campaign ({len(files)} trials done): pass --resume to "
+                                "continue it, or choose another --out")
     trials.mkdir(parents=True, exist_ok=True)
     for stale in trials.glob(".trial-*.tmp"):  # a writer killed before its rename
         stale.unlink()
@@ -519,24 +691,44 @@ def _prepare(out: Path, mission: Mission, planner: str, resume: bool) -> Path:
 
 
 # --------------------------------------------------------------------------- the campaign
-def _executor(workers: int, scheduler: str | None, steps=None):
-    """A ``concurrent.futures`` executor, a closer (``close(abort)``: at once, workers
-    terminated, when ``abort``) and how many trials to keep in flight (twice the worker
-    threads), or None to run in this process.  ``steps``: a shared counter the local
-    workers add their steps to."""
+CONNECT_SECONDS = 20.0  # a Dask scheduler must answer within this
+NO_WORKER_SECONDS = 120.0  # a Dask cluster with no worker for this long ends the campaign
+
+
+class _ClusterLost(Exception):
+    """A cluster that cannot finish the campaign (what ended it)."""
+
+
+@dataclass
+class _Runner:
+    """Where the trials run: a ``concurrent.futures`` executor (None: in this process),
+    ``close(abort)`` (at once, workers terminated, when ``abort``), how many trials to keep
+    in flight (twice the worker threads), ``check()`` called about every second while
+    waiting (raises :class:`_ClusterLost` for a cluster that cannot finish),
+    ``died()`` saying how a local worker ended when the pool broke, and ``submit`` (the
+    executor's)."""
+
+    executor: object = None
+    close: object = lambda abort=False: None
+    window: int = 0
+    check: object = lambda: None
+    died: object = lambda: "ended"
+    submit: object = None
+
+    def __post_init__(self):
+        if self.submit is None and self.executor is not None:
+            self.submit = self.executor.submit
+
+
+def _executor(workers: int, scheduler: str | None, steps=None) -> _Runner:
+    """The :class:`_Runner` for ``workers`` local processes or a Dask ``scheduler``.
+    ``steps``: a shared counter the local workers add their steps to."""
     if scheduler:
-        try:
-            from distributed import Client
-        except ImportError:
-            raise CampaignError("--scheduler needs Dask: pip install 'uavsim[dask]'") from None
-        try:
-            client = Client(scheduler)
-        except (OSError, ValueError, TypeError) as exc:  # bad address, nobody listening, timeout
-            raise CampaignError(f"--scheduler {scheduler}: cannot connect ({exc})") from None
-        return client.get_executor(), lambda abort=False: client.close(), 2 * max(sum(client.nthreads().values()), 1)
+        return _dask(scheduler)
     if workers > 1:
         pool = ProcessPoolExecutor(max_workers=workers, mp_context=get_context("spawn"), initializer=_start_worker,
                                    initargs=(os.getpid(), steps))
+        processes = {}
 
         def close(abort: bool = False) -> None:
             if abort:  # an interrupt: the finished trials are on disk; the running ones are dropped
@@ -544,28 +736,112 @@ def _executor(workers: int, scheduler: str | None, steps=None):
                     process.terminate()
             pool.shutdown(wait=not abort, cancel_futures=True)
 
-        return pool, close, 2 * workers
-    return None, lambda abort=False: None, 0
+        def submit(*args):
+            future = pool.submit(*args)
+            processes.update(pool._processes or {})  # kept to say how one ended if the pool breaks
+            return future
+
+        def died() -> str:
+            deadline = time.monotonic() + 2.0  # the dead one is being reaped; the pool is ending the others
+            for p in processes.values():
+                p.join(max(deadline - time.monotonic(), 0.0))
+            codes = [p.exitcode for p in processes.values() if p.exitcode is not None and p.exitcode != 0]
+            killed = [c for c in codes if c != -signal.SIGTERM] or codes  # the pool ends the others by SIGTERM
+            if not killed:
+                return "ended"
+            code = killed[0]
+            if code < 0:
+                name = signal.Signals(-code).name
+                return f"was killed by {name}" + (" (as the out-of-memory killer does)" if name == "SIGKILL" else "")
+            return f"exited with status {code}"
+
+        return _Runner(pool, close, 2 * workers, died=died, submit=submit)
+    return _Runner()
+
+
+def _connect(client_class, scheduler: str):
+    """``(client, threads)`` of the Dask scheduler at ``scheduler``, or CampaignError when
+    none answers within :data:`CONNECT_SECONDS`.  The client is made in a thread of its own
+    and waited for: Dask's own ``timeout`` does not bound the handshake with a listener
+    that does not speak its protocol (that thread is left behind, idle)."""
+    got: list = []
+
+    def connect() -> None:
+        try:
+            client = client_class(scheduler, timeout=CONNECT_SECONDS)
+            got.append((client, sum(client.nthreads(callback_timeout=CONNECT_SECONDS).values())))
+        except Exception as exc:  # noqa: BLE001 (reported below, whatever it is)
+            got.append(exc)
+
+    thread = threading.Thread(target=connect, daemon=True, name="uavsim-dask-connect")
+    thread.start()
+    thread.join(CONNECT_SECONDS + 1.0)
+    if not got:
+        raise CampaignError(f"--scheduler {scheduler}: no Dask scheduler answered within {CONNECT_SECONDS:.0f} s")
+    if isinstance(got[0], Exception):
+        raise CampaignError(f"--scheduler {scheduler}: cannot connect ({type(got[0]).__name__}: {got[0]})")
+    return got[0]
+
+
+def _dask(scheduler: str) -> _Runner:
+    """A Dask cluster's runner: connecting waits at most :data:`CONNECT_SECONDS`, and a
+    cluster without workers for :data:`NO_WORKER_SECONDS` (or whose scheduler is gone)
+    fails the campaign."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise CampaignError("--scheduler needs Dask: pip install 'uavsim[dask]'") from None
+    client, threads = _connect(Client, scheduler)
+    since = [time.monotonic()]
+
+    def check() -> None:
+        try:
+            alive = client.status == "running" and sum(client.nthreads(callback_timeout=CONNECT_SECONDS).values())
+        except (OSError, TimeoutError):
+            alive = False
+        if alive:
+            since[0] = time.monotonic()
+        elif time.monotonic() - since[0] > NO_WORKER_SECONDS:
+            raise _ClusterLost(f"the Dask scheduler {scheduler} has had no worker (or not answered) for "
+                                 f"{NO_WORKER_SECONDS:.0f} s")
+
+    return _Runner(client.get_executor(), lambda abort=False: client.close(), 2 * max(threads, 1), check)
 
 
 def run_campaign(mission: Mission, planner: str, out: Path | None = None, workers: int = 1,
                  scheduler: str | None = None, resume: bool = False, progress=None, record=None) -> dict:
     """All trials of ``mission`` with ``planner``; returns the summary.
 
-    ``out``: keep every finished trial in ``out/trials`` (see module docstring);
-    ``workers``: local processes (1 runs here); ``scheduler``: a Dask scheduler address;
-    ``progress``: a :class:`uavsim.progress.Progress`-like object (``start``, ``advance``,
-    ``close``); ``record = (path, trial, particles)``: write that trial to a rerun file
-    (it runs in this process).
+    ``out``: keep every finished trial in ``out/trials`` (see module docstring), holding
+    the folder's lock (:func:`campaign_lock`) meanwhile; ``workers``: local processes (1
+    runs here); ``scheduler``: a Dask scheduler address; ``progress``: a
+    :class:`uavsim.progress.Progress`-like object (``start``, ``advance``, ``close``);
+    ``record = (path, trial, particles)``: write that trial to a rerun file (it runs in
+    this process).
+
+    Raises
+    ------
+    CampaignError for a folder or request that cannot be used; CampaignFailed when the
+    campaign cannot finish (a worker died, the cluster lost its workers): the message
+    says which trials were running; the finished ones are kept in ``out``.
     """
-    t0 = time.perf_counter()
     with mission_errors(mission.path):
         make_policy(planner, mission)  # a setting this policy cannot use is refused before any trial
+    if out is None:
+        return _run(mission, planner, None, workers, scheduler, resume, progress, record)
+    with campaign_lock(out):
+        return _run(mission, planner, Path(out), workers, scheduler, resume, progress, record)
+
+
+def _run(mission, planner, out, workers, scheduler, resume, progress, record) -> dict:
+    t0 = time.perf_counter()
     seeds = trial_seeds(mission.seed, mission.trials)
-    folder = _prepare_folder(Path(out), mission, planner, resume) if out is not None else None
-    # With a folder the trials live on disk (checked readable here, read back for the
-    # summary), not in memory: the campaign's memory does not grow with its trial count.
-    done = set(load_trials(folder, range(mission.trials))) if folder is not None else set()
+    key = trial_key(mission, planner)
+    folder = _prepare_folder(out, mission, planner, resume) if out is not None else None
+    # With a folder the trials live on disk (checked here, damaged or foreign files set
+    # aside, and read back for the summary), not in memory: the campaign's memory does
+    # not grow with its trial count.
+    done = set(load_trials(folder, range(mission.trials), key, set_aside=True)) if folder is not None else set()
     results: dict[int, TrialResult] = {}
     todo = [k for k in range(mission.trials) if k not in done]
     if progress:
@@ -573,7 +849,7 @@ def run_campaign(mission: Mission, planner: str, out: Path | None = None, worker
 
     def finished(r: TrialResult) -> None:
         if folder is not None:
-            save_trial(folder, r)
+            save_trial(folder, r, key)
         else:
             results[r.index] = r
         if progress:
@@ -583,53 +859,74 @@ def run_campaign(mission: Mission, planner: str, out: Path | None = None, worker
         finished(_recorded_trial(mission, planner, seeds, record))
         todo = [k for k in todo if k != record[1]]
     steps = get_context("spawn").Value("q", 0) if todo and workers > 1 and not scheduler else None
-    executor, close, window = (_executor(min(workers, max(len(todo), 1)), scheduler, steps) if todo
-                               else (None, lambda abort=False: None, 0))
-    aborted = True
+    runner = _executor(min(workers, max(len(todo), 1)), scheduler, steps) if todo else _Runner()
+    aborted, running = True, {}
     try:
-        if executor is None:
+        if runner.executor is None:
             guidance = kept_guidance(mission) if todo else None
             step = (lambda info: info.t and progress.step()) if progress and hasattr(progress, "step") else None
             for k in todo:
                 finished(run_trial(mission, planner, k, seeds[k], guidance, on_step=step))
         else:  # at most `window` trials in flight: the executor holds no more than that
-            running = set()
 
-            def drain(until) -> set:
-                left = running
+            def drain(until) -> None:
                 while True:
-                    over, left = wait(left, timeout=1.0, return_when=until)
+                    over, _ = wait(set(running), timeout=1.0, return_when=until)
                     for future in over:
                         finished(future.result())
+                        del running[future]
                     if steps is not None and progress and hasattr(progress, "steps"):
                         progress.steps(steps.value)
-                    if over and until == FIRST_COMPLETED or not left:
-                        return left
+                    runner.check()
+                    if over and until == FIRST_COMPLETED or not running:
+                        return
 
             for k in todo:
-                if len(running) == window:
-                    running = drain(FIRST_COMPLETED)
-                running.add(executor.submit(_trial_task, mission, planner, k, seeds[k]))
+                if len(running) == runner.window:
+                    drain(FIRST_COMPLETED)
+                running[runner.submit(_trial_task, mission, planner, k, seeds[k])] = k
             drain(ALL_COMPLETED)
         aborted = False
+    except BrokenExecutor:
+        lost = sorted(k for f, k in running.items() if not f.done() or f.exception() is not None)
+        raise CampaignFailed(_failed(f"a worker process {runner.died()}", lost, folder)) from None
+    except _ClusterLost as exc:
+        raise CampaignFailed(_failed(str(exc), sorted(running.values()), folder)) from None
     finally:
-        close(aborted)
+        runner.close(aborted)
         if progress:
             progress.close()
     if folder is not None:  # the summary comes from what is on disk
-        results = load_trials(folder, range(mission.trials))
+        results = load_trials(folder, range(mission.trials), key, set_aside=True)
+        if len(results) < mission.trials:
+            raise CampaignFailed(_failed("trial files were damaged during the run", [], folder))
     return summarize(mission, planner, list(results.values()), time.perf_counter() - t0)
 
 
+def _failed(what: str, lost: list[int], folder: Path | None) -> str:
+    """One line: what ended the campaign, the trials it lost, what is kept and how to go on."""
+    running = f" while trial{'s' * (len(lost) > 1)} {', '.join(map(str, lost))} ran" if lost else ""
+    if folder is None:
+        return f"{what}{running}; the campaign has no output folder, so its finished trials are lost"
+    n = len(list(folder.glob("trial-*.npz")))
+    return (f"{what}{running}; the {n} finished trials are kept in {folder.parent}: run the same command again "
+            "to resume")
+
+
 def _recorded_trial(mission, planner, seeds, record) -> TrialResult:
-    from .recording import Recorder
+    from .recording import Recorder, RecordingError
 
     path, k, particles = record
-    recorder = Recorder(path, mission, planner, k, particles=particles)
     try:
-        return run_trial(mission, planner, k, seeds[k], on_step=recorder)
-    finally:
-        recorder.close()
+        recorder = Recorder(path, mission, planner, k, particles=particles)
+        try:
+            result = run_trial(mission, planner, k, seeds[k], on_step=recorder)
+        finally:
+            recorder.close()
+    except RecordingError as exc:
+        raise CampaignFailed(f"--record {exc}; stopped before the other trials: run again with another "
+                             "--record, or without it") from None
+    return result
 
 
 def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: float) -> dict:

@@ -16,6 +16,7 @@ import importlib.util
 import json
 import math
 import os
+import re
 import signal
 import sys
 import tempfile
@@ -29,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import load_mission, parse_value
-from .files import write_atomic, write_json
+from .files import NotFinite, write_atomic, write_json
 from .mission import Mission, MissionError, mission_errors
 from .shipped import mission_path, shipped_missions
 from .uav import BASELINE, PLANNERS
@@ -74,9 +75,15 @@ class UsageError(Exception):
     """A command-line request that cannot be carried out (exit status 2)."""
 
 
+class RunFailed(Exception):
+    """Work that started and could not finish, its results kept (exit status 1)."""
+
+
 def _output_folder(path: str | Path, flag: str = "--out", files: tuple[str, ...] = ()) -> Path:
     """Check an output folder before any work and create it: not a file, under a folder
     that can be written, and none of the ``files`` it will hold taken by a folder."""
+    if not str(path).strip():
+        raise UsageError(f"{flag}: empty; give a folder")
     out = Path(path)
     if out.exists() and not out.is_dir():
         raise UsageError(f"{flag} {out}: is a file, not a folder; choose another {flag}")
@@ -93,9 +100,13 @@ def _output_folder(path: str | Path, flag: str = "--out", files: tuple[str, ...]
 
 def _output_file(path: str | Path, flag: str) -> Path:
     """Check a file about to be written (its folder is made when it is written)."""
+    if not str(path).strip():
+        raise UsageError(f"{flag}: empty; give a file")
     out = Path(path)
     if out.is_dir():
         raise UsageError(f"{flag} {out}: is a folder, not a file")
+    if out.exists() and not out.is_file():
+        raise UsageError(f"{flag} {out}: is not a regular file (a device or a pipe); choose a file")
     _check_ancestor(out.parent, flag, out)
     return out
 
@@ -236,13 +247,16 @@ def _check_work(args: argparse.Namespace, mission: Mission, planners: list[str])
 
 
 def _campaign(args: argparse.Namespace, mission: Mission, planner: str, out: Path, record=None) -> dict:
-    from .campaign import CampaignError, run_campaign
+    from .campaign import CampaignError, CampaignFailed, campaign_lock, run_campaign
 
     try:
-        resume = _continues(args, mission, planner, out)
-        return run_campaign(mission, planner, out=out, workers=_workers(args),
-                            scheduler=args.scheduler, resume=resume, progress=_progress(args, planner),
-                            record=record)
+        with campaign_lock(out):  # from the look at the folder to the last trial: no other run writes there
+            resume = _continues(args, mission, planner, out)
+            return run_campaign(mission, planner, out=out, workers=_workers(args),
+                                scheduler=args.scheduler, resume=resume, progress=_progress(args, planner),
+                                record=record)
+    except CampaignFailed as exc:
+        raise RunFailed(str(exc)) from None
     except CampaignError as exc:
         raise UsageError(str(exc)) from None
 
@@ -370,14 +384,18 @@ def cmd_run(args: argparse.Namespace) -> int:
     mission = _campaign_mission(args)
     planner = args.planner or mission.planner.name
     record = None
-    if args.record:
-        if not 0 <= args.record_trial < mission.trials:
+    if args.record is None and (args.record_trial, args.record_particles) != (None, None):
+        raise UsageError("--record-trial and --record-particles say what --record writes: give --record FILE.rrd too")
+    out = Path(args.out if args.out is not None else f"runs/{mission.path.stem}-{planner}")
+    if args.record is not None:
+        trial, particles = args.record_trial or 0, 200 if args.record_particles is None else args.record_particles
+        if not 0 <= trial < mission.trials:
             raise UsageError(f"--record-trial must be between 0 and {mission.trials - 1}")
-        if args.record_particles < 0:
+        if particles < 0:
             raise UsageError("--record-particles must be >= 0")
-        record = (_output_file(args.record, "--record"), args.record_trial, args.record_particles)
-    out = _output_folder(args.out or f"runs/{mission.path.stem}-{planner}",
-                         files=("summary.json", "rmse.png", "nees.png"))
+        record = (_output_file(args.record, "--record"), trial, particles)
+        _apart(record[0], out)
+    out = _output_folder(args.out if args.out is not None else out, files=RUN_FILES)
     _check_work(args, mission, [planner])
     summary = _study(args, mission, planner, out, out / "baseline", {}, record)
     write_json(out / "summary.json", summary)
@@ -386,6 +404,19 @@ def cmd_run(args: argparse.Namespace) -> int:
     opened = f" and {args.record} (open it with: rerun {args.record})" if record else ""
     print(f"wrote {out / 'summary.json'}, {out / 'rmse.png'}, {out / 'nees.png'}{opened}")
     return 0
+
+
+RUN_FILES = ("summary.json", "rmse.png", "nees.png")  # what `run` writes in --out, beside its campaign folders
+
+
+def _apart(record: Path, out: Path) -> None:
+    """The recording must not be, or be inside, anything the run writes in ``out``."""
+    mine = [out / name for name in (*RUN_FILES, "campaign.json", "campaign.lock", "trials", "baseline", "set-aside")]
+    where = Path(os.path.abspath(record))
+    for path in mine:
+        path = Path(os.path.abspath(path))
+        if where == path or path in where.parents:
+            raise UsageError(f"--record {record}: the run writes {path.name} in --out {out}; record elsewhere")
 
 
 def _figures(summaries: dict[str, dict], out: Path) -> None:
@@ -402,6 +433,9 @@ def cmd_compare(args: argparse.Namespace) -> int:
     if unknown or not planners:
         raise UsageError(f"--planners: unknown {', '.join(unknown) or '(none given)'}; "
                          f"choose from {', '.join(PLANNERS)}")
+    twice = sorted({p for p in planners if planners.count(p) > 1})
+    if twice:
+        raise UsageError(f"--planners: {', '.join(twice)} given twice; give each planner once")
     out = _output_folder(args.out, files=("compare.json", "rmse.png", "nees.png"))
     for planner in planners:
         _output_folder(out / planner, "--out")
@@ -429,6 +463,20 @@ def _split_values(text: str) -> list[str]:
     return [v for v in out + [cur.strip()] if v]
 
 
+def _sweep_folders(key: str, values: list[str]) -> list[str]:
+    """The folder of each swept value: ``KEY=VALUE``, every character of the value but
+    letters, digits and ``.,+-[]`` replaced by ``_`` (a value never names a path: no
+    ``/``), and ``-2``, ``-3`` ... added where two values would share a folder."""
+    names: list[str] = []
+    for value in values:
+        name = f"{key}=" + re.sub(r"[^\w.,+\-\[\]]", "_", value, flags=re.ASCII)[:60]
+        base, n = name, 2
+        while name in names:
+            name, n = f"{base}-{n}", n + 1
+        names.append(name)
+    return names
+
+
 def cmd_sweep(args: argparse.Namespace) -> int:
     from .plots import sweep_plot
 
@@ -443,16 +491,19 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(f"--set: {exc}") from None
     flags = _flag_overrides(args)
+    if key in flags:
+        raise UsageError(f"--set {key}=... and --{key} both set {key}: give one")
     missions = [load_mission(args.mission, {**flags, key: v}) for v in values_parsed]  # validate all first
     out = _output_folder(args.out, files=("sweep.json", "sweep.csv", "sweep.png"))
-    for value in values:
-        _output_folder(out / f"{key}={value}", "--out", files=("summary.json",))
+    folders = _sweep_folders(key, values)
+    for folder in folders:
+        _output_folder(out / folder, "--out", files=("summary.json",))
     for mission in missions:
         _check_work(args, mission, [args.planner or mission.planner.name])
     rows, cache = [], {}
-    for value, mission in zip(values, missions):
+    for value, mission, name in zip(values, missions, folders):
         planner = args.planner or mission.planner.name
-        folder = out / f"{key}={value}"
+        folder = out / name
         s = _study(args, mission, planner, folder, folder / "baseline", cache)
         write_json(folder / "summary.json", s)
         base = s.get("baseline", {})
@@ -664,8 +715,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--planner", choices=PLANNERS, help="UAV planner (default: the mission's)")
     p.add_argument("--out", help="output folder (default runs/<mission>-<planner>)")
     p.add_argument("--record", metavar="FILE.rrd", help="write one trial's 3D scene as a rerun recording")
-    p.add_argument("--record-trial", type=int, default=0, metavar="K", help="which trial to record (default 0)")
-    p.add_argument("--record-particles", type=int, default=200, metavar="N",
+    p.add_argument("--record-trial", type=int, metavar="K", help="which trial to record (default 0)")
+    p.add_argument("--record-particles", type=int, metavar="N",
                    help="particles drawn per target (default 200; 0 draws none)")
     p.set_defaults(func=cmd_run)
 
@@ -789,6 +840,11 @@ def main(argv: list[str] | None = None) -> int:
     return _main(argv)
 
 
+def _warning_line(message, category, filename, lineno, file=None, line=None) -> None:
+    """A warning as one line on stderr (where it came from is no business of the user's)."""
+    print(f"warning: {message}", file=sys.stderr)
+
+
 def _main(argv: list[str] | None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser()
@@ -798,12 +854,17 @@ def _main(argv: list[str] | None) -> int:
         return 2
     args = parser.parse_args(argv)
     try:
-        if getattr(args, "mission", None):  # a file, or a shipped mission's name
-            args.mission = mission_path(args.mission)
-        return args.func(args)
+        with warnings.catch_warnings():
+            warnings.showwarning = _warning_line
+            if getattr(args, "mission", None):  # a file, or a shipped mission's name
+                args.mission = mission_path(args.mission)
+            return args.func(args)
     except (MissionError, UsageError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
+    except (RunFailed, NotFinite) as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 1
     except OSError as exc:  # a path the checks above could not foresee (disk full, removed meanwhile)
         where = f"{exc.filename}: " if exc.filename else ""
         print(f"error: {where}{exc.strerror or exc}", file=sys.stderr)

@@ -75,6 +75,7 @@ from gymnasium import spaces
 
 from .campaign import one_blas_thread, trial_seeds
 from .config import load_mission
+from .files import unwritable
 from .mission import Mission
 from .shipped import mission_path
 from .sim import Simulation
@@ -98,6 +99,9 @@ class UavsimEnv(gym.Env):
             raise ValueError(f"render_mode must be None or 'rerun', got {render_mode!r}")
         self.mission = mission if isinstance(mission, Mission) else load_mission(mission_path(mission))
         self.render_mode, self.record_path = render_mode, Path(record_path)
+        why = unwritable(self.record_path) if render_mode == "rerun" else None
+        if why:
+            raise ValueError(f"record_path {record_path}: {why}")
         self.sim = Simulation(self.mission, "optimized")
         m, u = self.mission, self.mission.uav
         n = len(m.targets)

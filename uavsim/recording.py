@@ -24,6 +24,7 @@ gives the same numbers as an unrecorded one.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from datetime import timedelta
 from pathlib import Path
 
@@ -34,6 +35,7 @@ from scipy.spatial.transform import Rotation
 
 from . import metrics
 from .bounds.pcrlb import HORIZONTAL_POS, pcrlb_planned
+from .files import unwritable
 from .mission import Mission
 from .sim import StepInfo
 from .uav import make_policy
@@ -83,6 +85,10 @@ def prism_mesh(footprints, z_lo: np.ndarray, z_hi: np.ndarray) -> tuple[np.ndarr
     triangles = np.concatenate([side_a[valid], side_b[valid], top[fan]])
     return positions, triangles
 
+class RecordingError(Exception):
+    """A recording that cannot be written (its path, or the disk filling up)."""
+
+
 class Recorder:
     """Log one trial to ``path``; use as the ``on_step`` callback, then :meth:`close`.
 
@@ -98,8 +104,12 @@ class Recorder:
         batching = rr.ChunkBatcherConfig(flush_tick=timedelta(seconds=5))
         self.rec = rr.RecordingStream("uavsim", recording_id=f"{Path(mission.path).stem}-{planner}-trial{trial}",
                                       batcher_config=batching)
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-        self.rec.save(str(path), default_blueprint=blueprint(mission))
+        why = unwritable(Path(path))
+        if why:
+            raise RecordingError(f"{path}: {why}")
+        self.path = Path(path)
+        with self._writing():
+            self.rec.save(str(path), default_blueprint=blueprint(mission))
         self.truth_path: list[np.ndarray] = []
         self.est_path: list[np.ndarray] = []
         self.uav_path: list[np.ndarray] = []
@@ -151,6 +161,10 @@ class Recorder:
 
     # ------------------------------------------------------------------ per step
     def __call__(self, info: StepInfo) -> None:
+        with self._writing():
+            self._log(info)
+
+    def _log(self, info: StepInfo) -> None:
         rec = self.rec
         if info.t == 0 and info.uav is None and len(info.observers):  # static sensors: part of the scene
             rec.log("world/sensors", rr.Points3D(info.observers, radii=[8.0], colors=[[20, 20, 20]],
@@ -240,8 +254,17 @@ class Recorder:
             self.rec.log(f"bearings/{kind}", rr.LineStrips3D(strips, colors=colors[kind], radii=[0.5]))
 
     def close(self) -> None:
-        self.rec.flush()
+        with self._writing():
+            self.rec.flush()
         self.rec.disconnect()
+
+    @contextmanager
+    def _writing(self):
+        """rerun's write errors (a full disk) as :class:`RecordingError` naming the file."""
+        try:
+            yield
+        except RuntimeError as exc:
+            raise RecordingError(f"{self.path}: the recording could not be written ({exc})") from None
 
 
 def ellipsoids(covs: np.ndarray, n_sigma: float) -> tuple[np.ndarray, np.ndarray]:
