@@ -486,3 +486,16 @@ def test_random_damage_is_refused_or_recovered_never_summed(made, tmp_path_facto
             np.testing.assert_array_equal(getattr(r, name), getattr(original[k], name))
         assert r.index == k and r.events == original[k].events and r.statuses == original[k].statuses
 
+
+
+def test_fewer_trials_than_the_folder_holds_says_so(made, tmp_path, capsys):
+    """A run asking fewer trials than a folder holds summarises the first ones and says so
+    (it used to rewrite summary.json silently)."""
+    mission, args, _, _ = made
+    out = copy(made, tmp_path)
+    capsys.readouterr()
+    assert main([a if a != "2" else "1" for a in args[:4]] + args[4:] + ["--out", str(out)]) == 0
+    said = capsys.readouterr().out
+    assert (f"reusing the finished campaign in {out} (1 trials, same mission and arguments); the summary takes its "
+            "first 1 of the 2 trials there; pass --fresh to run it again") in said, said
+    assert json.loads((out / "summary.json").read_text())["trials"] == 1

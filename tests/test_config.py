@@ -83,7 +83,7 @@ BAD_MISSIONS = [
         sub("process_noise_cov_si = [30.0, 30.0, 1e-10, 3.0, 3.0, 1e-10]",
             "process_noise_cov_si = [[30, 40, 0, 0, 0, 0], [40, 30, 0, 0, 0, 0], [0, 0, 1, 0, 0, 0],"
             " [0, 0, 0, 3, 0, 0], [0, 0, 0, 0, 3, 0], [0, 0, 0, 0, 0, 1]]"),
-        "dynamics.process_noise_cov_si", "not positive definite",
+        "dynamics.process_noise_cov_si", "not positive semi-definite",
     ),
     (
         sub("process_noise_cov_si = [30.0, 30.0, 1e-10, 3.0, 3.0, 1e-10]",

@@ -42,7 +42,7 @@ def refused(capsys, argv, fragment):
 
 FILE_CASES = [
     ("steps = 50", f"steps = {BIG}", "steps: must be in [1, 100000], got an integer of 401 digits"),
-    ("sigma_deg = 1.0", f"sigma_deg = {BIG}", "sensor.sigma_deg: must be in [0.001, 45] deg, got an integer of 401"),
+    ("sigma_deg = 1.0", f"sigma_deg = {BIG}", "sensor.sigma_deg: must be in [0.001, 22.5] deg, got an integer of 401"),
     ("seed = 2023", f"seed = {BIG}", "seed: must be in [0, 2^63 - 1], got an integer of 401 digits"),
     ("position_m = [281.0, 925.0, 0.0]", f"position_m = [{BIG}, 925.0, 0.0]", "targets[0].position_m: expected a 3"),
     ("clutter_rate = 1.0 ", "clutter_rate = 1e9 ", "sensor.clutter_rate: must be in [0, 100] per scan, got 1e+09"),
@@ -53,7 +53,7 @@ FILE_CASES = [
     ("mass_kg = 1300.0", "mass_kg = 1e-300", "dynamics.mass_kg: must be in [1, 1000000] kg, got 1e-300"),
     ("rho = 0.01", "rho = 1e308", "guidance.rho: must be in [0, 1000000] m^2/N^2, got 1e+308"),
     ("replan_budget_s = 1.0", "replan_budget_s = 1e308", "guidance.replan_budget_s: must be in [0.001, 3600]"),
-    ("sigma_deg = 1.0", "sigma_deg = 1e6", "sensor.sigma_deg: must be in [0.001, 45] deg"),
+    ("sigma_deg = 1.0", "sigma_deg = 1e6", "sensor.sigma_deg: must be in [0.001, 22.5] deg"),
     ("gap = 1e-4", "gap = 1", "guidance.gap: must be in [1e-09, 0.5], got 1"),
     ("force_max_n = 6000.0", "force_max_n = 1e308", "guidance.force_max_n: must be in [1, 1e7] N"),
     ("force_max_n = 6000.0", "force_max_n = 1e6", "force_max_n / dynamics.mass_kg = 769 m/s^2 is above 100"),
@@ -66,12 +66,67 @@ FILE_CASES = [
     ("time_limit_s = 10.0", "time_limit_s = 1e-300", "guidance.time_limit_s: must be in [0.01, 86400]"),
     ('name = "T2"', 'name = "T1"', "targets[1].name: 'T1' is also the name of targets[0]; names must be unique"),
     ('name = "T2"', 'name = " "', "targets[1].name: must not be empty"),
+    # validate = run: each of these passed validate and was refused (or crashed) in run
+    ("sigma_deg = 1.0", "sigma_deg = 30.0", "sensor.sigma_deg: must be in [0.001, 22.5] deg, got 30"),
+    ("position_m = [281.0, 925.0, 0.0]", "position_m = [281.0, 925.0, 300.0]",
+     "targets[0].position_m: targets move on the ground: z must be within +-1 m of 0, got 300"),
+    ("position_m = [281.0, 925.0, 0.0]", "position_m = [281.0, 925.0, 0.0]\nvelocity_mps = [0.0, 0.0, 50.0]",
+     "targets[0].velocity_mps: targets move on the ground: vz = 50 m/s carries z 250 m off it"),
+    ("start_m = [150.0, 200.0, 40.0]", "start_m = [150.0, 200.0, 500.0]",
+     "uav.start_m: z is 500 m but the UAV flies at altitude_m 40: give z = 40"),
+    ("[planner]", "[planner.manoeuvres]\ncircle_radius_m = 100000.0\n[planner]",
+     "planner.manoeuvres.circle_radius_m: the circle manoeuvre ([199810, 199810] m) is larger than the area"),
+    ('name = "T2"', 'name = "T2\\u001b[31m"', "targets[1].name: must not hold control characters"),
+    ('description = "', 'description = "line\\nbreak ', "description: must not hold control characters"),
 ]
 
 
 @pytest.mark.parametrize("old, new, fragment", FILE_CASES, ids=[c[2][:40] for c in FILE_CASES])
 def test_out_of_range_and_nonsense_values_are_refused(tmp_path, capsys, old, new, fragment):
     refused(capsys, ["validate", str(case(tmp_path, old, new))], fragment)
+
+
+def test_world_names_and_the_ground(tmp_path, capsys):
+    """Duplicate obstacle names were accepted; an area whose floor is above z = 0 was
+    refused for its obstacles (ground targets and goals are at z = 0): now it says why."""
+    world = (ROOT / "worlds" / "paper.toml").read_text()
+    path = case(tmp_path, "seed = 2023", "seed = 2023", world.replace('name = "B"', 'name = "A"'))
+    refused(capsys, ["validate", str(path)], "obstacles[1].name: 'A' is also the name of obstacles[0]; names must be")
+    path = case(tmp_path, "seed = 2023", "seed = 2023", world.replace("min_m = [0.0, 0.0, 0.0]",
+                                                                      "min_m = [0.0, 0.0, 10.0]", 1))
+    refused(capsys, ["validate", str(path)], "area.min_m: the ground z = 0, where the targets and goals are, must lie "
+                                             "in the area's height: min_m z <= 0 < max_m z, got 10..1000")
+
+
+def test_an_operating_region_inside_an_obstacle(tmp_path, capsys):
+    """The UAV's random start cannot be drawn in a region inside obstacle A at its
+    altitude: run refused it, validate did not."""
+    path = case(tmp_path, "start_m = [150.0, 200.0, 40.0]", "")
+    path.write_text(path.read_text().replace("[guidance]", "[uav.operating_region]\nmin_m = [310.0, 460.0]\n"
+                                                           "max_m = [440.0, 590.0]\n\n[guidance]", 1))
+    refused(capsys, ["validate", str(path)],
+            "uav.random_start: no free start found in 10000 draws: the operating region is (nearly) all obstacle")
+
+
+def test_a_byte_order_mark_is_read(tmp_path, capsys):
+    """A UTF-8 byte-order mark (as some editors write) was "Invalid statement (line 1, column 1)"."""
+    path = case(tmp_path, "seed = 2023", "seed = 2023")
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    assert main(["validate", str(path)]) == 0
+    assert "targets   4:" in capsys.readouterr().out
+
+
+def test_bearings_finer_than_the_particles_resolve_are_said_before_the_run(tmp_path, capsys):
+    """sigma_deg = 0.001 (the declared minimum) is valid but collapses 5000 particles
+    (RMSE worse than no information): validate and run say so, with what would do."""
+    path = case(tmp_path, "sigma_deg = 1.0", "sigma_deg = 0.001")
+    assert main(["validate", str(path)]) == 0
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"warning: {path}: sensor.sigma_deg 0.001 is finer than filter.particles 5000 resolve: "
+                          "about 13 particles fall within 2 sigma of T2's bearing"), err
+    assert err.endswith("use about 114872 particles, or sigma_deg >= 0.023"), err
+    assert main(["validate", str(case(tmp_path, "sigma_deg = 1.0", "sigma_deg = 0.03"))]) == 0
+    assert capsys.readouterr().err == ""
 
 
 def test_an_area_of_1e300_metres_is_refused(tmp_path, capsys):

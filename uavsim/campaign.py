@@ -584,10 +584,12 @@ class Held:
     ``done``: finished trials this run can use (of its trials 0..n-1; every trial file
     when the folder holds another campaign); ``differs``: "" when the folder holds this
     very campaign (same mission settings, planner, seed, steps: only the trial count may
-    differ), else what differs, e.g. ``seed 99 in this run, 2023 there``."""
+    differ), else what differs, e.g. ``seed 99 in this run, 2023 there``; ``files``:
+    every trial file it holds."""
 
     done: int
     differs: str
+    files: int = 0
 
 
 def held(out: Path, mission: Mission, planner: str) -> Held | None:
@@ -607,7 +609,7 @@ def held(out: Path, mission: Mission, planner: str) -> Held | None:
     old, files = found
     differs = _difference(old, _manifest(mission, planner))
     indices = {int(f.stem[6:]) for f in files if f.stem[6:].isdigit()}
-    return Held(len(files) if differs else sum(k < mission.trials for k in indices), differs)
+    return Held(len(files) if differs else sum(k < mission.trials for k in indices), differs, len(files))
 
 
 LOCK = "campaign.lock"  # in a campaign folder: held by the process writing it
@@ -742,9 +744,9 @@ def _executor(workers: int, scheduler: str | None, steps=None) -> _Runner:
             return future
 
         def died() -> str:
-            deadline = time.monotonic() + 2.0  # the dead one is being reaped; the pool is ending the others
-            for p in processes.values():
-                p.join(max(deadline - time.monotonic(), 0.0))
+            deadline = time.monotonic() + 3.0  # the dead one is being reaped (by the pool's thread, maybe),
+            while time.monotonic() < deadline and any(p.exitcode is None for p in processes.values()):
+                time.sleep(0.05)  # and the pool is ending the others
             codes = [p.exitcode for p in processes.values() if p.exitcode is not None and p.exitcode != 0]
             killed = [c for c in codes if c != -signal.SIGTERM] or codes  # the pool ends the others by SIGTERM
             if not killed:

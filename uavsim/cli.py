@@ -31,7 +31,7 @@ import numpy as np
 
 from .config import load_mission, parse_value
 from .files import NotFinite, write_atomic, write_json
-from .mission import Mission, MissionError, mission_errors
+from .mission import Mission, MissionError, advisories, mission_errors
 from .shipped import mission_path, shipped_missions
 from .uav import BASELINE, PLANNERS
 
@@ -56,8 +56,16 @@ def _summary(m: Mission) -> str:
 
 
 def cmd_validate(args: argparse.Namespace) -> int:
-    print(_summary(load_mission(args.mission)))
+    mission = load_mission(args.mission)
+    print(_summary(mission))
+    _advise(mission)
     return 0
+
+
+def _advise(mission: Mission) -> None:
+    """What the mission's valid settings make likely to go wrong (:func:`uavsim.mission.advisories`)."""
+    for text in advisories(mission):
+        print(f"warning: {mission.path}: {text}", file=sys.stderr)
 
 
 def cmd_missions(args: argparse.Namespace) -> int:
@@ -229,6 +237,7 @@ def _check_work(args: argparse.Namespace, mission: Mission, planners: list[str])
     for planner in planners:
         with mission_errors(mission.path):
             make_policy(planner, mission)
+    _advise(mission)
 
     workers, campaigns = 1 if args.scheduler else _workers(args), len(set(planners) | {BASELINE})
     work = plan_of_work(mission, workers, campaigns=campaigns)  # each planner's, and their trials' baseline
@@ -280,7 +289,9 @@ def _continues(args: argparse.Namespace, mission: Mission, planner: str, out: Pa
         raise UsageError(f"{out} holds another campaign, not this run's ({found.differs}): choose another --out, "
                          "or pass --fresh to replace it")
     if found.done >= mission.trials:
-        print(f"reusing the finished campaign in {out} ({mission.trials} trials, same mission and arguments); "
+        more = (f"; the summary takes its first {mission.trials} of the {found.files} trials there"
+                if found.files > mission.trials else "")
+        print(f"reusing the finished campaign in {out} ({mission.trials} trials, same mission and arguments){more}; "
               "pass --fresh to run it again")
     else:
         print(f"resuming the unfinished campaign in {out}: {found.done} of {mission.trials} trials done, running "

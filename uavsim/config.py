@@ -21,6 +21,7 @@ import math
 import os
 import stat
 import tomllib
+import unicodedata
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -35,8 +36,10 @@ from .sensing import Sensor
 from .targets import TARGET_KEYS, Dynamics, Target
 from .uav import FixedSensorsConfig, LookaheadConfig, ManoeuvreConfig, PlannerConfig, UavConfig
 from .uav.fixed import FIXED_FRACTIONS, fixed_sensor_problem
-from .uav.manoeuvres import default_sizes
+from .uav.grid import uav_start
+from .uav.manoeuvres import default_sizes, manoeuvre_loop
 from .world import GoalRegion, Polygons, Region2D, World, convex_ccw, fmt, inside_polytopes
+from .world.model import GROUND_BAND_M
 
 MAX_FILE_BYTES = 16 * 2**20  # a mission or world file larger than this is not one a person wrote
 MAX_COORDINATE_M = 1e7  # 10 000 km: an area beyond this is a unit mistake, and squares of it overflow
@@ -87,13 +90,14 @@ class _Table:
         elif spec.kind == "string":
             if not isinstance(value, str):
                 self.fail(key, f"expected a string, got {_describe(value)}")
+            self._printable(key, value)
             if spec.choices is not None and value not in spec.choices:
                 self.fail(key, f"must be one of {', '.join(spec.choices)}; got {value[:40]!r}")
         elif spec.kind == "boolean":
             if not isinstance(value, bool):
                 self.fail(key, f"expected true or false, got {_describe(value)}")
         elif spec.kind == "covariance":
-            value = self.covariance(key, spec.shape[0], hi=spec.hi)
+            value = self.covariance(key, spec.shape[0], hi=spec.hi, semidefinite=spec.semidefinite)
         else:
             value = self.array(key, spec.shape)
             if (spec.lo is not None and np.any(value < spec.lo)) or (spec.hi is not None and np.any(value > spec.hi)):
@@ -118,9 +122,17 @@ class _Table:
         value = self._get(key, default)
         if not isinstance(value, str):
             self.fail(key, f"expected a string, got {_describe(value)}")
+        self._printable(key, value)
         if choices is not None and value not in choices:
             self.fail(key, f"must be one of {', '.join(choices)}; got '{value}'")
         return value
+
+    def _printable(self, key: str, value: str) -> None:
+        """Names and descriptions are printed to terminals and logs: no control characters."""
+        bad = next((c for c in value if unicodedata.category(c) == "Cc"), None)
+        if bad is not None:
+            self.fail(key, f"must not hold control characters (newlines, tabs, terminal escapes); found "
+                           f"U+{ord(bad):04X}")
 
     def array(self, key, shape: tuple[int | None, ...], default=REQUIRED) -> np.ndarray:
         """A nested list of finite numbers of the given shape (None: any length >= 1)."""
@@ -137,9 +149,10 @@ class _Table:
             self.fail(key, "expected finite numbers, got inf or nan")
         return arr
 
-    def covariance(self, key: str, n: int, hi: float | None = None) -> np.ndarray:
+    def covariance(self, key: str, n: int, hi: float | None = None, semidefinite: bool = False) -> np.ndarray:
         """An n x n covariance, written as its diagonal (n variances) or in full; no
-        variance above ``hi``."""
+        variance above ``hi``; positive definite, or with ``semidefinite`` positive
+        semi-definite (a zero process noise: a deterministic model)."""
         value = self._get(key, REQUIRED)
         arr = _numeric_array(value)
         if arr is not None and arr.shape == (n,):
@@ -156,6 +169,10 @@ class _Table:
             self.fail(key, f"variance {i} is {arr[i, i]:g}, above {hi:g}")
         if not np.allclose(arr, arr.T, rtol=1e-12, atol=0):
             self.fail(key, "matrix is not symmetric")
+        if semidefinite:
+            if np.linalg.eigvalsh(arr).min() < -1e-12 * max(np.abs(arr).max(), 1.0):
+                self.fail(key, "covariance is not positive semi-definite")
+            return arr
         try:
             np.linalg.cholesky(arr)
         except np.linalg.LinAlgError:
@@ -228,7 +245,8 @@ def _load_toml(path: Path, referrer: tuple[Path, str] | None = None) -> dict[str
             raise MissionError(path, "(file)", f"{st.st_size / 2**20:.0f} MiB: larger than the "
                                                f"{MAX_FILE_BYTES // 2**20} MiB a mission or world file may be")
         with open(path, "rb") as fh:
-            return tomllib.load(fh)
+            data = fh.read()
+        return tomllib.loads(data.removeprefix(b"\xef\xbb\xbf").decode("utf-8"))  # a byte-order mark is allowed
     except FileNotFoundError:
         if referrer:
             raise MissionError(referrer[0], referrer[1], f"file not found: {path}") from None
@@ -260,11 +278,17 @@ def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> Wo
             area.fail(key, f"coordinates beyond +-{MAX_COORDINATE_M:g} m are not a world (got {fmt(corner)})")
     if np.any(hi <= lo):
         area.fail("max_m", f"must exceed min_m in every axis, got min {lo.tolist()} max {hi.tolist()}")
+    if not lo[2] <= 0.0 < hi[2]:
+        area.fail("min_m", f"the ground z = 0, where the targets and goals are, must lie in the area's height: "
+                           f"min_m z <= 0 < max_m z, got {lo[2]:g}..{hi[2]:g}")
     area.finish()
 
     footprints, z, names = [], [], []
     for i, t in enumerate(top.tables("obstacles", optional=True)):
         names.append(t.string("name", default=f"obstacle{i}"))
+        if names[-1] in names[:-1]:
+            t.fail("name", f"'{names[-1]}' is also the name of obstacles[{names.index(names[-1])}]; names must be "
+                           "unique")
         footprint, z_range = _obstacle(t)
         _check_obstacle_in_area(t, names[-1], np.r_[footprint.min(0), z_range[0]], np.r_[footprint.max(0), z_range[1]],
                                 lo, hi)
@@ -431,7 +455,7 @@ def _mission(path: Path, data: dict) -> Mission:
     dynamics = _section(top.table("dynamics", optional=True, empty=True), Dynamics)
     sensor = _section(top.table("sensor", optional=True, empty=True), Sensor)
     uav = _uav(top.table("uav", optional=True, empty=True), world)
-    targets = _targets(top, world)
+    targets = _targets(top, world, dynamics)
     guidance = _section(top.table("guidance", optional=True, empty=True), GuidanceConfig)
     g = top.table("guidance", optional=True, empty=True)
     if guidance.force_max / dynamics.mass > MAX_ACCELERATION:
@@ -478,9 +502,17 @@ def _uav(t: _Table, world: World) -> UavConfig:
     if uav.n_r * uav.step > float(np.max(world.area_hi[:2] - world.area_lo[:2])):
         t.fail("step_m", f"n_r x step_m = {uav.n_r * uav.step:g} m is longer than the area "
                          f"({fmt(world.area_hi[:2] - world.area_lo[:2])} m)")
+    if given_start and abs(uav.start[2] - altitude) > 1e-9:
+        t.fail("start_m", f"z is {uav.start[2]:g} m but the UAV flies at altitude_m {altitude:g}: give z = "
+                          f"{altitude:g}")
     if given_start or not uav.random_start:
         _check_point(world, t, "start_m", uav.start, "UAV start" + ("" if given_start else
                      " (the default, 0.15 and 0.2 of the region; set uav.start_m)"), region)
+    if uav.random_start:
+        try:  # as every trial draws it (the draws of seed 0)
+            uav_start(np.random.default_rng(0), uav, world)
+        except SettingError as exc:
+            t.fail("random_start", exc.message)
     return uav
 
 
@@ -508,11 +540,11 @@ def _region(t: _Table | None, world: World) -> Region2D | None:
     return region
 
 
-def _targets(top: _Table, world: World) -> tuple[Target, ...]:
+def _targets(top: _Table, world: World, dynamics: Dynamics) -> tuple[Target, ...]:
     tables = top.tables("targets")
     if not tables:
         top.fail("targets", "at least one [[targets]] table is required")
-    targets = tuple(_target(t, world) for t in tables)
+    targets = tuple(_target(t, world, dynamics) for t in tables)
     seen: dict[str, int] = {}
     for i, (t, target) in enumerate(zip(tables, targets)):
         if target.name in seen:
@@ -521,7 +553,7 @@ def _targets(top: _Table, world: World) -> tuple[Target, ...]:
     return targets
 
 
-def _target(t: _Table, world: World) -> Target:
+def _target(t: _Table, world: World, dynamics: Dynamics) -> Target:
     goal_names = [g.name for g in world.goals]
     v = {spec.key: t.read(spec) for spec in TARGET_KEYS}
     if not v["name"].strip():
@@ -529,6 +561,14 @@ def _target(t: _Table, world: World) -> Target:
     if v["goal"] not in goal_names:
         t.fail("goal", f"no goal region {v['goal'][:40]!r} in the world (it has: {', '.join(goal_names)})")
     _check_point(world, t, "position_m", v["position_m"], "target start")
+    if abs(v["position_m"][2]) > GROUND_BAND_M:
+        t.fail("position_m", f"targets move on the ground: z must be within +-{GROUND_BAND_M:g} m of 0, got "
+                             f"{v['position_m'][2]:g}")
+    vz = v["velocity_mps"][2]  # unforced, z drifts by vz dt / friction in all: it must stay in the ground band
+    drift = abs(vz) * dynamics.dt / dynamics.friction if dynamics.friction > 0 else (np.inf if vz else 0.0)
+    if abs(v["position_m"][2]) + drift > GROUND_BAND_M:
+        t.fail("velocity_mps", f"targets move on the ground: vz = {vz:g} m/s carries z {drift:.3g} m off it "
+                               f"(vz dt_s / friction); keep |z| + that within {GROUND_BAND_M:g} m")
     t.finish()
     return Target(name=v["name"], mean0=np.concatenate([v["position_m"], v["velocity_mps"]]), cov0=v["cov0_si"],
                   goal=goal_names.index(v["goal"]))
@@ -547,8 +587,16 @@ def _planner(t: _Table, uav: UavConfig, world: World) -> PlannerConfig:
     extent = float(np.min(region.max(0) - region.min(0)))
     sizes = {name: default_sizes(extent)[spec.key] for name, spec in specs(ManoeuvreConfig)
              if spec.key in default_sizes(extent)}
-    manoeuvres = _section(t.table("manoeuvres", optional=True, empty=True), ManoeuvreConfig,
-                          {"step": uav.n_r * uav.step, **sizes})
+    mt = t.table("manoeuvres", optional=True, empty=True)
+    manoeuvres = _section(mt, ManoeuvreConfig, {"step": uav.n_r * uav.step, **sizes})
+    room = region.max(0) - region.min(0)
+    for name, keys in MANOEUVRE_SIZE.items():
+        loop = manoeuvre_loop(name, manoeuvres)
+        over = loop.max(0) - loop.min(0) > room
+        if over.any():
+            size, where = fmt(loop.max(0) - loop.min(0)), "operating region" if uav.region is not None else "area"
+            mt.fail(keys[int(np.argmax(over))], f"the {name} manoeuvre ({size} m) is larger than the {where} "
+                                                f"({fmt(room)} m)")
     f = t.table("fixed_sensors", optional=True, empty=True)
     given = f.has("positions_m")
     xy = world.area_lo[:2] + FIXED_FRACTIONS * (world.area_hi[:2] - world.area_lo[:2])
@@ -560,6 +608,11 @@ def _planner(t: _Table, uav: UavConfig, world: World) -> PlannerConfig:
             f.fail("positions_m", problem)
     lookahead = _section(t.table("lookahead", optional=True, empty=True), LookaheadConfig)
     return _section(t, PlannerConfig, manoeuvres=manoeuvres, fixed_sensors=fixed, lookahead=lookahead)
+
+
+# The settings that size each manoeuvre's loop along x and y.
+MANOEUVRE_SIZE = {"zigzag": ("zigzag_length_m", "zigzag_width_m"), "square": ("square_side_m",) * 2,
+                  "pentagon": ("pentagon_radius_m",) * 2, "circle": ("circle_radius_m",) * 2}
 
 
 def _check_goals_reachable(path: Path, world: World, dynamics: Dynamics, guidance: GuidanceConfig,

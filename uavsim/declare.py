@@ -57,6 +57,7 @@ class Spec:
     to_si: Callable[[Any], Any] | None = None
     from_si: Callable[[Any], Any] | None = None
     derived: str = ""
+    semidefinite: bool = False  # a covariance that may be singular (a zero process noise)
 
     @property
     def required(self) -> bool:
@@ -97,7 +98,8 @@ def _bound(x: float) -> str:
 def setting(key: str, default: Any = REQUIRED, *, doc: str, unit: str = "", kind: str | None = None,
             lo: float | None = None, hi: float | None = None, lo_open: bool = False, hi_open: bool = False,
             choices: tuple[str, ...] | None = None, shape: tuple[int | None, ...] | None = None,
-            to_si: Callable | None = None, from_si: Callable | None = None, derived: str = "") -> Any:
+            to_si: Callable | None = None, from_si: Callable | None = None, derived: str = "",
+            semidefinite: bool = False) -> Any:
     """A dataclass field read from the mission file as ``key`` (see :class:`Spec`).  The
     field's own default is the declared one converted to SI (an array's through a
     factory); a derived setting's field defaults to None (the reader passes the derived
@@ -106,7 +108,8 @@ def setting(key: str, default: Any = REQUIRED, *, doc: str, unit: str = "", kind
         kind = ("string" if choices or isinstance(default, str) else "boolean" if isinstance(default, bool)
                 else "integer" if isinstance(default, int) else "number")
     assert kind in KINDS, kind
-    spec = Spec(key, kind, doc, unit, default, lo, hi, lo_open, hi_open, choices, shape, to_si, from_si, derived)
+    spec = Spec(key, kind, doc, unit, default, lo, hi, lo_open, hi_open, choices, shape, to_si, from_si, derived,
+                semidefinite)
     meta = {"setting": spec}
     if derived:
         return field(default=None, metadata=meta)

@@ -54,8 +54,9 @@ class Sensor:
     sigma : bearing noise std (rad); p_detect : p_D; clutter_rate : Lambda (per scan, per channel).
     """
 
-    sigma: float = setting("sigma_deg", 1.0, unit="deg", lo=0.001, hi=45, **degrees,
-                           doc="bearing noise standard deviation sigma (Eq. 4)")
+    sigma: float = setting("sigma_deg", 1.0, unit="deg", lo=0.001, hi=22.5, **degrees,
+                           doc="bearing noise standard deviation sigma (Eq. 4); at most 22.5, where the "
+                               "wrapped tail of the noise (taken as Gaussian on the line by the bound) is below 1e-15")
     p_detect: float = setting("p_detect", 0.95, lo=0, hi=1, doc="p_D, that a scan holds the target's bearing")
     clutter_rate: float = setting("clutter_rate", 1.0, unit="per scan", lo=0, hi=100,
                                   doc="Lambda, mean false alarms per scan on each target's channel (Poisson)")

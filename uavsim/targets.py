@@ -54,7 +54,7 @@ class Dynamics:
     friction: float = setting("friction", 0.2, lo=0, hi=1, doc="epsilon: a step keeps 1 - epsilon of the velocity")
     mass: float = setting("mass_kg", 1300.0, unit="kg", lo=1, hi=1e6, doc="target mass m (Eq. 2)")
     q: np.ndarray = setting("process_noise_cov_si", [30.0, 30.0, 1e-10, 3.0, 3.0, 1e-10], kind="covariance",
-                            unit="m^2, m^2/s^2", lo=0, hi=1e6, shape=(6,),
+                            unit="m^2, m^2/s^2", lo=0, hi=1e6, shape=(6,), semidefinite=True,
                             doc="process noise Q over [x, y, z, vx, vy, vz]: 6 variances or a 6x6 matrix")
 
     @cached_property
@@ -67,8 +67,14 @@ class Dynamics:
 
     @cached_property
     def q_chol(self) -> np.ndarray:
-        """Lower Cholesky factor of Q, for sampling ``nu = L z``."""
-        return np.linalg.cholesky(self.q)
+        """A factor ``L`` with ``L L^T = Q``, for sampling ``nu = L z``: Cholesky's (lower
+        triangular) where Q is positive definite, else from Q's eigen-decomposition (a
+        semi-definite Q, e.g. 0: a noise-free model)."""
+        try:
+            return np.linalg.cholesky(self.q)
+        except np.linalg.LinAlgError:
+            w, v = np.linalg.eigh(self.q)
+            return v * np.sqrt(np.maximum(w, 0.0))
 
     def step(self, x: np.ndarray, u: np.ndarray, rng: np.random.Generator | None = None) -> np.ndarray:
         """One step of Eq. (1) for states ``x (..., 6)`` and controls ``u (..., 3)``.

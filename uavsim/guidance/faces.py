@@ -96,8 +96,11 @@ class Reach:
             free_p[tau] = free_p[tau - 1] + dt * free_v[tau - 1]
             free_v[tau] = (1.0 - friction) * free_v[tau - 1]
         d = np.diff(np.eye(horizon), axis=0)
-        h = np.outer(g_p[-1], g_p[-1]) + rho_model * d.T @ d
-        sigma = np.sqrt(np.einsum("ti,ti->t", g_p, np.linalg.solve(h, g_p.T).T))
+        if rho_model > 0:
+            h = np.outer(g_p[-1], g_p[-1]) + rho_model * d.T @ d
+            sigma = np.sqrt(np.einsum("ti,ti->t", g_p, np.linalg.solve(h, g_p.T).T))
+        else:  # no increment cost: H = g_T g_T' is singular and f bounds no p_tau but the last
+            sigma = np.full(horizon + 1, np.inf)
         return cls(dt, v_max, np.asarray(area_lo), np.asarray(area_hi), sigma, free_p, force_max_model * g_p.sum(1))
 
     @property
