@@ -39,6 +39,23 @@ def test_nees_of_a_singular_covariance_is_finite():
     np.testing.assert_allclose(metrics.nees(np.array([[3.0, 5.0], [1.0, 0.0]]), p), [1.0, 1.0], rtol=1e-12)
 
 
+def test_nees_of_an_indefinite_rounding_is_never_negative():
+    """A collapsed particle cloud whose covariance rounds to indefinite (an eigenvalue of
+    -1e-14 beside 100): a plain solve gave NEES of -1e42 in a run with sigma_deg = 0.001.
+    The eigen-decomposition leaves that direction out: e = 10 along the sure axis (100)
+    gives 1, whatever the error along the other."""
+    v = np.array([[0.6, -0.8], [0.8, 0.6]])  # a rotation: eigenvectors not along the axes
+    p = v @ np.diag([100.0, -1e-14]) @ v.T
+    for along_null in (0.0, 1e3, -7.0):
+        e = v @ np.array([10.0, along_null])
+        assert metrics.nees(e, p) == pytest.approx(1.0, rel=1e-9)
+    rng = np.random.default_rng(0)  # random near-singular covariances: never negative, never NaN
+    x = rng.normal(size=(1000, 6))
+    rank1 = x[:, :, None] * x[:, None, :] - 1e-15 * np.eye(6)  # rank 1, indefinite by rounding's size
+    values = metrics.nees(rng.normal(size=(1000, 6)) * 1e3, rank1)
+    assert np.all(values >= 0) and np.all(np.isfinite(values))
+
+
 def test_nees_band_is_the_chi_square_quantiles():
     """One chi-square(2) value: [0.0506, 7.378] (tables); the mean of n values scales
     chi-square(n d) by 1/n, so for n = 400, d = 2 the band is about 2 +- 1.96 * 0.1."""

@@ -78,6 +78,8 @@ FILE_CASES = [
      "planner.manoeuvres.circle_radius_m: the circle manoeuvre ([199810, 199810] m) is larger than the area"),
     ('name = "T2"', 'name = "T2\\u001b[31m"', "targets[1].name: must not hold control characters"),
     ('description = "', 'description = "line\\nbreak ', "description: must not hold control characters"),
+    ('name = "T2"', 'name = "T2\\u202e"', "targets[1].name: must not hold control characters"),  # right-to-left
+    ('name = "T2"', 'name = "T2\\u2028"', "targets[1].name: must not hold control characters"),  # line separator
 ]
 
 

@@ -198,3 +198,22 @@ def test_a_zero_process_noise_runs(tmp_path):
     m = load_mission(tmp_path / "m.toml", {"dynamics.process_noise_cov_si": [0.0] * 6, "trials": 1, "steps": 2})
     assert not m.dynamics.q.any() and not m.dynamics.q_chol.any()
     assert np.isfinite(run_campaign(m, "optimized")["time_avg_rmse"])
+
+
+def test_a_tiny_rho_gives_finite_or_infinite_reach_never_nan():
+    """rho = 1e-20 (inside its range) made H singular to rounding: the growth radii of the
+    plan's face bounds were NaN (sqrt of a negative); now a direction H cannot resolve has
+    an infinite radius (no bound from the cost there), and a well-conditioned H keeps
+    its exact radius: g' H^-1 g by hand for T = 2."""
+    from uavsim.guidance.faces import Reach
+    from uavsim.guidance.model import KN
+
+    for rho, unbounded in ((0.0, True), (1e-20, True), (1e-14, False)):
+        sigma = Reach.build(1.0, 0.2, 1300.0, 50, rho * KN**2, 16.0, 6.0, np.zeros(2), np.full(2, 1e3)).sigma
+        assert not np.isnan(sigma).any() and sigma[-1] == pytest.approx(1.0)
+        assert np.isinf(sigma[2:-1]).all() if unbounded else (np.isfinite(sigma).all() and (sigma[2:-1] > 1e4).all())
+    # T = 2, dt = 1, no friction, mass = KN: g_1 = [0, 0] ... g_2 = [1, 0]; H = g_2 g_2' + rho D'D
+    rho = 2.0
+    sigma = Reach.build(1.0, 0.0, KN, 2, rho, 16.0, 6.0, np.zeros(2), np.full(2, 1e3)).sigma
+    h = np.outer([1.0, 0.0], [1.0, 0.0]) + rho * np.array([[1.0, -1.0], [-1.0, 1.0]])
+    assert sigma[2] == pytest.approx(np.sqrt(np.array([1.0, 0.0]) @ np.linalg.solve(h, [1.0, 0.0])), rel=1e-12)

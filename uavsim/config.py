@@ -128,8 +128,9 @@ class _Table:
         return value
 
     def _printable(self, key: str, value: str) -> None:
-        """Names and descriptions are printed to terminals and logs: no control characters."""
-        bad = next((c for c in value if unicodedata.category(c) == "Cc"), None)
+        """Names and descriptions are printed to terminals and logs: no control characters,
+        line or paragraph separators, or bidirectional overrides (text that reads otherwise)."""
+        bad = next((c for c in value if unicodedata.category(c) in ("Cc", "Zl", "Zp") or c in BIDI_CONTROLS), None)
         if bad is not None:
             self.fail(key, f"must not hold control characters (newlines, tabs, terminal escapes); found "
                            f"U+{ord(bad):04X}")
@@ -364,6 +365,9 @@ def _check_obstacle_in_area(t: _Table, name: str, o_lo, o_hi, lo, hi) -> None:
                  for axis, d in zip("xyz", ds) if d > 0]
         t.fail(key((below > 0) | (above > 0), "max_m" if np.any(above > 0) else "min_m"),
                f"obstacle '{name}' {fmt(o_lo)}..{fmt(o_hi)} extends outside {area}: {', '.join(parts)}")
+
+
+BIDI_CONTROLS = frozenset("\u200e\u200f\u061c\u202a\u202b\u202c\u202d\u202e\u2066\u2067\u2068\u2069")
 
 
 def _check_point(world: World, table: _Table, key: str, point: np.ndarray, what: str, region=None):

@@ -31,17 +31,29 @@ STATE = (0, 1, 2, 3, 4, 5)  # the full state [p, v]
 
 
 def nees(err: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """``e' P^-1 e`` for errors ``(..., d)`` and covariances ``(..., d, d)``; shape ``(...)``.
+    """``e' P^-1 e`` for errors ``(..., d)`` and covariances ``(..., d, d)``; shape ``(...)``;
+    never negative, never NaN.
 
-    A singular covariance (a collapsed particle set) uses the pseudo-inverse, so the value
-    stays finite: the error in the directions the filter is sure of is then not counted,
-    which the chi-square band of the average will show as too small a NEES."""
-    rhs = err[..., None]
-    try:
-        sol = np.linalg.solve(cov, rhs)
-    except np.linalg.LinAlgError:
-        sol = np.linalg.pinv(cov, hermitian=True) @ rhs
-    return np.einsum("...i,...i->...", err, sol[..., 0])
+    A covariance that is not numerically positive definite (a collapsed particle set: its
+    least eigenvalue within ``d eps`` of its largest, or below 0 by rounding) takes the
+    pseudo-inverse through its eigen-decomposition, those directions left out: the error
+    in the directions the filter is sure of is then not counted, which the chi-square band
+    of the average will show as too small a NEES.  (A plain solve there gave values of
+    -1e42 from an indefinite rounding of a collapsed cloud.)"""
+    err = np.asarray(err, float)
+    cov = np.asarray(cov, float)
+    w, v = np.linalg.eigh(cov)
+    tol = w[..., -1:] * cov.shape[-1] * np.finfo(float).eps
+    sure = w[..., 0] > tol[..., 0]
+    out = np.empty(err.shape[:-1])
+    if sure.any():
+        e = err[sure]
+        out[sure] = np.einsum("...i,...i->...", e, np.linalg.solve(cov[sure], e[..., None])[..., 0])
+    if not sure.all():
+        proj = np.einsum("...ji,...j->...i", v[~sure], err[~sure])  # the error in the eigenbasis
+        keep = w[~sure] > tol[~sure]
+        out[~sure] = np.where(keep, proj**2 / np.where(keep, w[~sure], 1.0), 0.0).sum(-1)
+    return out
 
 
 def state_nees(mean: np.ndarray, cov: np.ndarray, truth: np.ndarray, dims=POS) -> np.ndarray:

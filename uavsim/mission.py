@@ -88,16 +88,23 @@ RESOLVED_PARTICLES = 300
 
 def advisories(m: Mission) -> list[str]:
     """What a valid mission's settings make likely to go wrong, said before a run (the
-    command line prints each as a warning).  Today: bearings finer than the particle
-    filter resolves.  In a step the process noise spreads a target's particles over about
-    ``s = sqrt(max eig Q_xy)`` metres across the line of sight; at range ``r`` a bearing
+    command line prints each as a warning): a process noise that leaves resampled
+    particles identical (some horizontal direction without noise, no roughening), and
+    bearings finer than the particle filter resolves.  In a step the process noise spreads
+    a target's particles over about ``s = sqrt(max eig Q_xy)`` metres across the line of
+    sight; at range ``r`` a bearing
     of noise sigma keeps those within ``2 sigma r``: about ``N 4 sigma r / (sqrt(2 pi) s)``
     of N particles, for the nearest target at the UAV's start.  Fewer than
     :data:`RESOLVED_PARTICLES` and the weights collapse onto a few particles."""
     if m.filter.kind != "particle" or m.sensor is None:
         return []
+    horizontal = np.ix_([0, 1, 3, 4], [0, 1, 3, 4])
+    if np.linalg.eigvalsh(m.dynamics.q[horizontal]).min() <= 0.0 and m.filter.roughening == 0.0:
+        return ["dynamics.process_noise_cov_si has no noise along some horizontal direction and filter.roughening is "
+                "0: resampled particles stay copies of each other there (impoverishment; NEES grows step by step); "
+                "set filter.roughening > 0 (e.g. 0.2)"]
     s = float(np.sqrt(max(np.linalg.eigvalsh(m.dynamics.q[:2, :2]).max(), 0.0)))
-    if s == 0.0:
+    if s == 0.0:  # no process noise in position: nothing spreads the particles in a step
         return []
     ranges = [float(np.linalg.norm(t.mean0[:2] - m.uav.start[:2])) for t in m.targets]
     k = int(np.argmin(ranges))

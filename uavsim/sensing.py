@@ -45,6 +45,11 @@ def bearing(target: np.ndarray, sensor: np.ndarray) -> np.ndarray:
     return wrap_angle(np.arctan2(t[..., 0] - s[..., 0], t[..., 1] - s[..., 1]))
 
 
+# The largest bearing noise the models support: the PCRLB takes the noise as Gaussian on
+# the line, whose wrapped tail 2 Phi(-pi / sigma) is below 1e-15 up to pi / 8.
+SIGMA_MAX_DEG = 22.5
+
+
 @dataclass(frozen=True)
 class Sensor:
     """Sensor parameters of Sec. III-C, the same for every channel.
@@ -54,7 +59,7 @@ class Sensor:
     sigma : bearing noise std (rad); p_detect : p_D; clutter_rate : Lambda (per scan, per channel).
     """
 
-    sigma: float = setting("sigma_deg", 1.0, unit="deg", lo=0.001, hi=22.5, **degrees,
+    sigma: float = setting("sigma_deg", 1.0, unit="deg", lo=0.001, hi=SIGMA_MAX_DEG, **degrees,
                            doc="bearing noise standard deviation sigma (Eq. 4); at most 22.5, where the "
                                "wrapped tail of the noise (taken as Gaussian on the line by the bound) is below 1e-15")
     p_detect: float = setting("p_detect", 0.95, lo=0, hi=1, doc="p_D, that a scan holds the target's bearing")

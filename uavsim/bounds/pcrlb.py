@@ -121,10 +121,10 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..sensing import Sensor
+from ..sensing import SIGMA_MAX_DEG, Sensor
 from ..targets import HORIZONTAL, Dynamics
 
-MAX_SIGMA = np.pi / 8  # rad: the wrapped tail 2 Phi(-pi / sigma) of the bearing noise is < 1e-15
+MAX_SIGMA = np.radians(SIGMA_MAX_DEG)  # pi / 8: the wrapped tail 2 Phi(-pi / sigma) of the noise is < 1e-15
 _SQRT_2PI = np.sqrt(2.0 * np.pi)
 POS = slice(0, 2)  # (x, y) in the state [x, y, z, vx, vy, vz]
 HORIZONTAL_POS = slice(0, 2)  # (x, y) in [x, y, vx, vy]

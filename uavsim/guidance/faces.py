@@ -96,11 +96,13 @@ class Reach:
             free_p[tau] = free_p[tau - 1] + dt * free_v[tau - 1]
             free_v[tau] = (1.0 - friction) * free_v[tau - 1]
         d = np.diff(np.eye(horizon), axis=0)
-        if rho_model > 0:
-            h = np.outer(g_p[-1], g_p[-1]) + rho_model * d.T @ d
-            sigma = np.sqrt(np.einsum("ti,ti->t", g_p, np.linalg.solve(h, g_p.T).T))
-        else:  # no increment cost: H = g_T g_T' is singular and f bounds no p_tau but the last
-            sigma = np.full(horizon + 1, np.inf)
+        w, v = np.linalg.eigh(np.outer(g_p[-1], g_p[-1]) + rho_model * d.T @ d)
+        # g' H^-1 g in H's eigenbasis; a direction H does not resolve (rho = 0, or so small
+        # that H is singular to rounding) leaves p_tau unbounded there: an infinite radius
+        resolved = w > w[-1] * horizon * np.finfo(float).eps
+        proj = g_p @ v  # (T + 1, T)
+        blind = (np.abs(proj[:, ~resolved]) > 1e-12 * np.abs(proj).max()).any(axis=1)
+        sigma = np.where(blind, np.inf, np.sqrt((proj[:, resolved] ** 2 / w[resolved]).sum(axis=1)))
         return cls(dt, v_max, np.asarray(area_lo), np.asarray(area_hi), sigma, free_p, force_max_model * g_p.sum(1))
 
     @property
