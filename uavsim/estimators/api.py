@@ -31,6 +31,16 @@ CONVENTIONS = ("north-cw", "east-ccw")
 SIGMA_MAX_RAD = 0.5  # a bearing noise above this (29 deg) is far more likely degrees by mistake
 
 
+class ConvergenceWarning(UserWarning):
+    """An iterative estimator stopped before converging in some runs (its ``converged_``
+    says which); their estimates are not the optimum the method seeks."""
+
+
+class SearchAreaWarning(UserWarning):
+    """A search confined to an area ended on the area's boundary: the area, not the data,
+    decided the estimate there (it acts as a prior); widen it."""
+
+
 class DegenerateUpdateWarning(UserWarning):
     """Some updates were skipped (zero innovation variance, an undefined gain)."""
 

@@ -358,7 +358,8 @@ def solve_general(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]
 class NewtonResult:
     """:func:`gauss_newton` per run: ``theta (R, n)``, ``nll (R,)`` at theta, ``n_iter (R,)``
     steps taken, ``converged (R,)`` (the predicted decrease of ``lam`` fell to ``tol``),
-    ``degenerate (R,)`` (a singular or non-finite Newton matrix or step stopped the run;
+    ``degenerate (R,)`` (a singular or non-finite Newton matrix or step stopped the run,
+    or with the line search no step length lowered ``lam`` short of convergence;
     ``theta`` is its last finite iterate)."""
 
     theta: np.ndarray
@@ -368,21 +369,33 @@ class NewtonResult:
     degenerate: np.ndarray
 
 
+HALVINGS = 30  # step lengths 1, 1/2, ..., 2^-29 tried by the line search, in one evaluation
+
+
 def gauss_newton(data: BearingData, theta0, max_iter: int = 50, tol: float = 1e-9,
-                 hessian: bool = False) -> NewtonResult:
+                 hessian: bool = False, line_search: bool = False) -> NewtonResult:
     """Newton-Raphson on ``lam`` for every run from ``theta0 (R, n)``:
-    ``theta <- theta - A^-1 M`` with ``A`` the Fisher information (Gauss-Newton, Fisher
-    scoring) or, with ``hessian=True``, the full Hessian ([Oh2021, Eq. (6)-(7)]).  No line search and
-    no bounds, as in the paper.  A run stops when the step's predicted decrease
-    ``1/2 |M^T A^-1 M|`` is at most ``tol`` (in units of ``lam``; the noise moves ``lam`` by
-    about ``n / 2``), after ``max_iter`` steps, or when ``A`` is singular or not finite.
-    Evaluates in float64 whatever ``data.dtype``."""
+    ``theta <- theta - a A^-1 M`` with ``A`` the Fisher information (Gauss-Newton, Fisher
+    scoring) or, with ``hessian=True``, the full Hessian ([Oh2021, Eq. (6)-(7)]).
+
+    ``line_search=False`` (the paper's, and its divergence): ``a = 1``, no bounds.
+    ``line_search=True`` (damped): ``a`` is the longest of 1, 1/2, ... 2^-29 that lowers
+    ``lam`` (Armijo with a zero slope fraction; all tried in one vectorised evaluation),
+    so ``lam`` never rises and the iterates cannot run away to 1e10 m from a start whose
+    full step overshoots; a run where no step length lowers ``lam`` stops (at a minimum to
+    rounding if its predicted decrease is within ``tol``, else not converged).
+
+    A run stops when the step's predicted decrease ``1/2 |M^T A^-1 M|`` is at most ``tol``
+    (in units of ``lam``; the noise moves ``lam`` by about ``n / 2``), after ``max_iter``
+    steps, or when ``A`` is singular or not finite.  Evaluates in float64 whatever
+    ``data.dtype``."""
     if data.dtype != np.float64:
         data = data.astype(np.float64)
     theta = np.array(theta0, float).reshape(data.runs, 1, data.n)
     n_iter = np.zeros(data.runs, int)
     converged, degenerate = np.zeros(data.runs, bool), np.zeros(data.runs, bool)
     ev = Evaluator(data)
+    lengths = 0.5 ** np.arange(HALVINGS)
     for _ in range(max_iter):
         active = ~(converged | degenerate)
         if not active.any():
@@ -395,7 +408,24 @@ def gauss_newton(data: BearingData, theta0, max_iter: int = 50, tol: float = 1e-
         ok &= np.isfinite(lam) & np.isfinite(theta[:, 0] + step).all(-1)
         degenerate |= active & ~ok
         move = active & ok
+        small = 0.5 * np.abs(np.einsum("ri,ri->r", grad, step)) <= tol
+        if line_search and move.any():
+            rows = np.flatnonzero(move)
+            trial = theta[rows] + lengths[None, :, None] * step[rows, None, :]  # (m, HALVINGS, n)
+            lower = ev_rows(data, rows).nll(trial) < lam[rows, None]
+            found = lower.any(axis=1)
+            step[rows] *= np.where(found, lengths[np.argmax(lower, axis=1)], 0.0)[:, None]
+            stuck = np.zeros(data.runs, bool)
+            stuck[rows[~found]] = True
+            converged |= stuck & small  # no length lowers lam: at the minimum, to rounding
+            degenerate |= stuck & ~small  # ... or stalled short of it
+            move &= ~stuck
         theta[move, 0] += step[move]
         n_iter += move
-        converged |= move & (0.5 * np.abs(np.einsum("ri,ri->r", grad, step)) <= tol)
+        converged |= move & small
     return NewtonResult(theta[:, 0], ev.nll(theta)[:, 0], n_iter, converged, degenerate)
+
+
+def ev_rows(data: BearingData, rows: np.ndarray) -> Evaluator:
+    """An :class:`Evaluator` of the runs ``rows`` of ``data``."""
+    return Evaluator(data.take(rows) if len(rows) != data.runs else data)

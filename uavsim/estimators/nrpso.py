@@ -42,6 +42,7 @@ matrix) and the NR step to 0.2% (4%).  The statistics of the study do not move
 from __future__ import annotations
 
 import inspect
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -110,6 +111,15 @@ class Window:
         """``(R, P)``: inside the area (up to a relative tolerance for rounding)."""
         pos, vel = self._inside(theta, rtol)
         return pos & vel
+
+    def near_edge(self, theta: np.ndarray, frac: float = 0.02) -> np.ndarray:
+        """``(R, P)``: within ``frac`` of a limit of the area (of ``range_max``, of
+        ``speed_max``, or of ``half`` off the bearing), or outside it."""
+        rel = theta[..., :2] - self.origin[:, None]
+        off = np.abs(wrap(np.arctan2(rel[..., 1], rel[..., 0]) - self.bearing[:, None]))
+        return ((np.hypot(rel[..., 0], rel[..., 1]) >= (1 - frac) * self.range_max)
+                | (off >= (1 - frac) * self.half[:, None])
+                | (np.hypot(theta[..., 2], theta[..., 3]) >= (1 - frac) * self.speed_max))
 
     def project(self, theta: np.ndarray) -> np.ndarray:
         """Map parameters into the area: range clipped to ``range_max``, bearing offset to
@@ -188,11 +198,12 @@ def best_candidate(data: BearingData, window: Window, rng, n_candidates: int = 1
 
 
 def newton_raphson(prob: Problem, rng, n_candidates: int = 10_000, max_iter: int = 50, tol: float = 1e-9,
-                   hessian: bool = False, dtype=np.float32):
+                   hessian: bool = False, dtype=np.float32, line_search: bool = False):
     """[Oh2021]'s NR: :func:`best_candidate` (evaluated in ``dtype``), then
-    :func:`.batch.gauss_newton` (float64).  Returns its :class:`.batch.NewtonResult`."""
+    :func:`.batch.gauss_newton` (float64; undamped as in the paper unless
+    ``line_search``).  Returns its :class:`.batch.NewtonResult`."""
     start, _ = best_candidate(prob.data.astype(dtype), prob.window, rng, n_candidates)
-    return gauss_newton(prob.data, start, max_iter=max_iter, tol=tol, hessian=hessian)
+    return gauss_newton(prob.data, start, max_iter=max_iter, tol=tol, hessian=hessian, line_search=line_search)
 
 
 @dataclass(frozen=True)
@@ -259,6 +270,19 @@ def nrpso(prob: Problem, rng, **settings) -> SwarmResult:
 
 
 METHODS = ("nr", "pso", "nrpso")
+FAR = 10.0  # the range test scales the track about the first observer position by this
+RANGE_RISE = 0.5  # ... and calls the range unobservable when lam rises by less (one sigma of a profile)
+
+
+def _outward_rise(prob: Problem, x: np.ndarray, lam: np.ndarray) -> np.ndarray:
+    """``(R,)`` how much ``lam`` rises from ``x (R, 4)`` to the track :data:`FAR` times as
+    far from the first observer position (position offset and velocity scaled: the same
+    bearings from a fixed observer, the observer's own motion counting less).  Negative:
+    the likelihood still grows outwards, so ``x`` is no maximum (an iterate on its way to
+    infinite range); below :data:`RANGE_RISE`: the data hardly tell the two ranges apart."""
+    o = prob.window.origin
+    far = np.concatenate([o + FAR * (x[:, :2] - o), FAR * x[:, 2:]], axis=-1)
+    return Evaluator(prob.data).nll(far[:, None])[:, 0] - lam
 
 
 class BatchTMA:
@@ -272,7 +296,24 @@ class BatchTMA:
         ``"nrpso"``.
     rng : a ``numpy.random.Generator``, or a sequence of one per run (run r then draws
         only from the r-th); None draws a fresh unseeded Generator.
+    area : :class:`SearchArea`, where the candidates (NR) and the swarm (PSO, NRPSO) are
+        drawn: within ``range_max`` (15 km) of the first observer position, ``n_sigma``
+        (3) noise std of the first bearing, speeds up to ``speed_max`` (15 m/s) ([Oh2021,
+        Table 2]).  The swarm never leaves it, so for PSO and NRPSO it acts as a prior:
+        a :class:`uavsim.estimators.api.SearchAreaWarning` says when the swarm's best lies
+        within 2% of a limit (the data would have gone further).  Inside it the area still
+        shapes the swarm's answer; the polish (below) removes that where the ML exists.
+    damped : NR with a line search (:func:`.batch.gauss_newton`): ``lam`` never rises,
+        so no run diverges; ``False`` is [Oh2021]'s undamped step (about 1% of
+        weak-geometry runs then go to 1e10 m and beyond).
+    polish : after PSO or NRPSO, the damped Gauss-Newton from the swarm's best to the
+        maximum of the likelihood (free of the area), kept where it converges (where the
+        range runs off to infinity the swarm's best stays, ``converged_`` False); ``False``
+        is [Oh2021]'s swarm alone (50 iterations: variance 2-3x the CRLB, ``converged_``
+        rarely true).
     Other settings as in :func:`newton_raphson` and :func:`swarm` (the paper's values).
+    The paper's own study (:mod:`uavsim.studies.oh2021`) runs the functions undamped and
+    unpolished.
 
     Attributes after :meth:`fit` (leading ``R`` axis when ``bearings`` was ``(R, K)``)
     --------------------------------------------------------------------------------
@@ -280,11 +321,15 @@ class BatchTMA:
     cov_ : inverse Fisher information at ``x_`` (the CRLB evaluated at the estimate); NaN
         where that matrix is singular (then ``converged_`` is False).
     nll_ : ``lam = J / 2`` at ``x_``.
-    n_iter_ : Newton steps (NR) or swarm iterations.
+    n_iter_ : Newton steps (NR), or swarm iterations plus the polish's Newton steps.
     converged_ : the Gauss-Newton step from ``x_`` would lower ``lam`` by at most ``tol``
-        (a local minimum to that tolerance); swarms rarely get there in 50 iterations.
+        (a local minimum to that tolerance); a :class:`uavsim.estimators.api.ConvergenceWarning`
+        says how many runs did not get there.
     degenerate_ : NR stopped at a singular Newton matrix (then also not converged).
     newton_share_ : NRPSO's fraction of particle-iterations with the NR term (else 0).
+    range_unobservable_ : the track 10 times as far from the first observer position fits
+        the bearings within 0.5 of log-likelihood (then a ConvergenceWarning says how
+        many runs); where it fits them better, ``converged_`` is False (no maximum).
 
     References
     ----------
@@ -295,7 +340,7 @@ class BatchTMA:
                  max_iter: int = 50, tol: float = 1e-9, hessian: bool = False, n_particles: int = 400,
                  n_iter: int = 50, alpha: float = 0.25, c_l: float = 1.55, c_g: float = 0.15, c_n: float = 0.1,
                  n_thr: float = 1e-4, carry: str = "move", area: SearchArea = SearchArea(), dtype=np.float32,
-                 convention: str = "north-cw", units: str = "rad"):
+                 convention: str = "north-cw", units: str = "rad", damped: bool = True, polish: bool = True):
         if method not in METHODS:
             raise ValueError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
         _check("convention", convention, api.CONVENTIONS)
@@ -304,6 +349,7 @@ class BatchTMA:
         self.n_candidates, self.max_iter, self.tol, self.hessian = n_candidates, max_iter, tol, hessian
         self.n_particles, self.n_iter, self.alpha, self.c_l, self.c_g = n_particles, n_iter, alpha, c_l, c_g
         self.c_n, self.n_thr, self.carry, self.area, self.dtype = c_n, n_thr, carry, area, dtype
+        self.damped, self.polish = damped, polish
 
     def get_params(self, deep: bool = True) -> dict:
         """The constructor's settings (scikit-learn's protocol)."""
@@ -352,19 +398,48 @@ class BatchTMA:
         r = prob.data.runs
         self.degenerate_, self.newton_share_ = np.zeros(r, bool), np.zeros(r)
         if self.method == "nr":
-            res = newton_raphson(prob, rng, self.n_candidates, self.max_iter, self.tol, self.hessian, self.dtype)
+            res = newton_raphson(prob, rng, self.n_candidates, self.max_iter, self.tol, self.hessian, self.dtype,
+                                 line_search=self.damped)
             x, self.nll_, self.n_iter_, self.degenerate_ = res.theta, res.nll, res.n_iter, res.degenerate
         else:
             res = swarm(prob, rng, self.n_particles, self.n_iter, self.alpha, self.c_l, self.c_g,
                         self.c_n if self.method == "nrpso" else 0.0, self.n_thr, self.carry, self.dtype)
             x, self.nll_, self.n_iter_ = res.theta, res.nll, np.full(r, self.n_iter)
             self.newton_share_ = res.newton_share
+            edge = prob.window.near_edge(x[:, None])[:, 0]
+            if edge.any():
+                warnings.warn(f"{self.method}: in {edge.sum()} of {r} runs the swarm's best lies at the boundary of "
+                              f"the search area ({self.area}): the area, not the data, bounded the estimate there"
+                              f"{' before the polish' if self.polish else ''}; pass a larger area=SearchArea(...)",
+                              api.SearchAreaWarning, stacklevel=3)
+            if self.polish:  # kept where it converged; elsewhere (range running off) the swarm's best stays
+                pol = gauss_newton(prob.data, x, self.max_iter, self.tol, line_search=True)
+                done = pol.converged & (_outward_rise(prob, pol.theta, pol.nll) >= 0)
+                x = np.where(done[:, None], pol.theta, x)
+                self.nll_ = np.where(done, pol.nll, self.nll_)
+                self.n_iter_ = self.n_iter_ + pol.n_iter
+                self.degenerate_ = pol.degenerate
         _, grad, fim = Evaluator(prob.data).derivatives(x[:, None])
         step, _, ok = cholesky_solve(fim[:, 0], -grad[:, 0])
         self.converged_ = ok & (0.5 * np.abs(np.einsum("ri,ri->r", grad[:, 0], step)) <= self.tol)
         self.cov_ = spd_inverse(fim[:, 0])[0]
         self.x_ = x
+        rise = _outward_rise(prob, x, self.nll_)
+        self.converged_ &= rise >= 0  # the likelihood still grows outwards: no maximum here
+        self.range_unobservable_ = rise < RANGE_RISE
+        if self.range_unobservable_.any():
+            warnings.warn(f"{self.method}: in {self.range_unobservable_.sum()} of {r} runs the bearings do not fix the "
+                          f"range: the track {FAR:g} times as far fits them within {RANGE_RISE} of log-likelihood "
+                          "(weak geometry: the observer has not manoeuvred enough); x_ there is no estimate of range",
+                          api.ConvergenceWarning, stacklevel=3)
+        if not self.converged_.all():
+            far = np.hypot(*(x[~self.converged_, :2] - prob.window.origin[~self.converged_]).T)
+            warnings.warn(f"{self.method}: {(~self.converged_).sum()} of {r} runs did not converge (converged_ is "
+                          f"False there; their estimates lie {np.median(far):.3g} m from the observer, median): weak "
+                          f"geometry, too few iterations (max_iter {self.max_iter}) or a singular information matrix",
+                          api.ConvergenceWarning, stacklevel=3)
         if single:
-            for name in ("x_", "cov_", "nll_", "n_iter_", "converged_", "degenerate_", "newton_share_"):
+            for name in ("x_", "cov_", "nll_", "n_iter_", "converged_", "degenerate_", "newton_share_",
+                         "range_unobservable_"):
                 setattr(self, name, getattr(self, name)[0])
         return self
