@@ -31,7 +31,7 @@ def main(out_dir=None, small=True):
     for name, inside in (("bearings only", ()), ("inside the basin", (basin,))):
         fit = ConstrainedMLE(np.radians(1.5), inside=inside, order=1, convention="east-ccw")
         fits[name] = fit.fit(times, bearings, observers)
-        errors[name] = np.hypot(*(fit.predict(times) - truth).T)
+        errors[name] = np.hypot(*(fit.predict(times)[:, :2] - truth).T)
         print(f"{name:<18} mean position error {errors[name].mean():7.1f} m, converged {fit.converged_}, "
               f"largest violation {fit.violation_:.2e} m")
 
@@ -41,7 +41,7 @@ def main(out_dir=None, small=True):
     ax.plot(*observers.T, "k.-", ms=2, lw=0.6, label="observer")
     ax.plot(*truth.T, lw=4, color="0.7", label="truth")
     for name, fit in fits.items():
-        ax.plot(*fit.predict(times).T, "--" if name == "bearings only" else "-",
+        ax.plot(*fit.predict(times)[:, :2].T, "--" if name == "bearings only" else "-",
                 label=f"{name} ({errors[name].mean():.0f} m)")
     ax.set(aspect="equal", xlabel="x (m)", ylabel="y (m)", title="constrained MLE, order 1 (constant velocity)")
     ax.legend(fontsize=8, loc="upper left")

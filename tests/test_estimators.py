@@ -3,6 +3,7 @@ conventions, and every user mistake an adversarial tester made ending in a clear
 or warning (bearings or sigma in degrees, NaN bearings, a non-PSD prior, wrong shapes,
 too few scans, a degenerate update)."""
 
+import re
 import warnings
 
 import numpy as np
@@ -125,3 +126,83 @@ def test_mixture_noise_is_given_in_radians():
     assert np.all(np.isfinite(tracks))
     with pytest.raises(ValueError, match="probably degrees"):
         PLMMSE(GaussianMixture([1.0], [3.0**2]), **PRIOR)
+
+
+# ------------------------------------------------------------------ one contract, every estimator
+def every_estimator():
+    """One of each estimator class and kind, with the library's defaults where it has them."""
+    from uavsim.estimators import ConstrainedMLE
+
+    rng = np.random.default_rng(0)
+    return ([PLKF(SIGMA, kind=k, **PRIOR) for k in ("plkf", "bc-plkf", "iv-plkf", "ub-plkf", "vc-plkf")]
+            + [PLMMSE(SIGMA, kind=k, **PRIOR) for k in ("pl-mmse", "plkf", "bc-plkf", "ivkf")]
+            + [BatchTMA(SIGMA, method=m, rng=rng, n_candidates=500, n_particles=50, n_iter=5)
+               for m in ("nr", "pso", "nrpso")]
+            + [ConstrainedMLE(SIGMA, order=1)])
+
+
+@pytest.mark.parametrize("est", every_estimator(), ids=lambda e: f"{type(e).__name__}-"
+                         f"{e.get_params().get('kind', e.get_params().get('method', 'mle'))}")
+def test_every_estimator_keeps_one_contract(est):
+    """In the spirit of scikit-learn's check_estimator: the same default convention and
+    units; get_params / set_params / a clone from the parameters (each the very object
+    given); unknown parameters refused; results only after fit (NotFittedError, a
+    ValueError too); predict returns (K, 4) states for the batch estimators; a recursive
+    filter's reset() puts it back at its prior (a second filter() used to continue from
+    the first one's posterior)."""
+    from uavsim.estimators.api import NotFittedError
+
+    params = est.get_params()
+    assert params["convention"] == "north-cw" and params["units"] == "rad"
+    clone = type(est)(**params)
+    assert all(clone.get_params()[k] is v for k, v in params.items())
+    assert est.set_params(**{"units": "rad"}) is est
+    with pytest.raises(ValueError, match="unknown parameters"):
+        est.set_params(nonsense=1)
+    b = bearings()
+    if hasattr(est, "fit"):
+        with pytest.raises(NotFittedError):
+            est.predict(TIMES)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            fitted = est.fit(TIMES, b, OBS)
+        assert fitted is est and est.predict(TIMES).shape == (K, 4) and est.cov_.shape[-2:] == (4, 4)
+        assert isinstance(NotFittedError("x"), ValueError)
+    else:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            first = est.filter(TIMES, b, OBS)[0]
+        assert not np.allclose(est.x, PRIOR["x0"])
+        np.testing.assert_array_equal(est.reset().x, PRIOR["x0"])
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            np.testing.assert_array_equal(est.filter(TIMES, b, OBS)[0], first)  # the same run again
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: BatchTMA(SIGMA, max_iter=-5), "max_iter must be an integer in [1, inf]; got -5"),
+    (lambda: BatchTMA(SIGMA, tol=np.nan), "tol must be a number in [0, inf]; got nan"),
+    (lambda: BatchTMA(SIGMA, alpha=np.nan), "alpha must be a number in [0, inf]; got nan"),
+    (lambda: BatchTMA(SIGMA, n_candidates=0), "n_candidates must be an integer in [1, inf]; got 0"),
+    (lambda: PLKF(SIGMA, kind="vc-plkf", v_min=5.0, v_max=2.0, **PRIOR), "v_max must be a number in [5, inf]"),
+    (lambda: PLKF(SIGMA, kind="vc-plkf", v_max=np.nan, **PRIOR), "v_max must be a number in [0, inf]; got nan"),
+    (lambda: PLKF(SIGMA, **PRIOR).predict(np.nan), "dt must be a number in [0, inf]; got nan"),
+    (lambda: PLKF(SIGMA, **PRIOR).predict(-100.0), "dt must be a number in [0, inf]; got -100"),
+    (lambda: PLKF(SIGMA, **PRIOR).predict(np.inf), "dt must be a number in [0, inf]; got inf"),
+])
+def test_every_numeric_argument_is_checked(make, message):
+    """Each was accepted (or a ZeroDivisionError) before."""
+    with pytest.raises(ValueError, match=re.escape(message)):
+        make()
+
+
+def test_a_sigma_that_looks_like_degrees_is_a_hint():
+    """sigma = 0.5 meant as degrees is 29 degrees in radians: valid, but a UnitsWarning asks."""
+    from uavsim.estimators.api import UnitsWarning
+
+    with pytest.warns(UnitsWarning, match=r"sigma = 0.5 rad is 28.6 deg.*pass units='deg'"):
+        PLKF(0.5, **PRIOR)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        PLKF(0.5, units="deg", **PRIOR)
+        PLKF(SIGMA, **PRIOR)

@@ -24,10 +24,13 @@ import importlib
 _EXPORTS = {
     "CONVENTIONS": "api", "PLKF": "api", "PLMMSE": "api", "ConstrainedMLE": "api", "DegenerateUpdateWarning": "api",
     "convert": "api", "Disc": "intelligence", "BatchTMA": "nrpso", "GaussianMixture": "plmmse",
+    "NotFittedError": "api", "ConvergenceWarning": "api", "SearchAreaWarning": "api", "UnitsWarning": "api",
+    "SearchArea": "nrpso",
 }
 
 __all__ = ["PLKF", "PLMMSE", "BatchTMA", "ConstrainedMLE", "Disc", "GaussianMixture", "CONVENTIONS", "convert",
-           "DegenerateUpdateWarning"]
+           "DegenerateUpdateWarning", "NotFittedError", "ConvergenceWarning", "SearchAreaWarning", "UnitsWarning",
+           "SearchArea"]
 
 
 def __getattr__(name: str):

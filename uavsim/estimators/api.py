@@ -29,6 +29,61 @@ from .constraints import _check
 
 CONVENTIONS = ("north-cw", "east-ccw")
 SIGMA_MAX_RAD = 0.5  # a bearing noise above this (29 deg) is far more likely degrees by mistake
+SIGMA_HINT_RAD = 0.1  # above this (5.7 deg) in radians, a warning asks whether degrees were meant
+
+
+class UnitsWarning(UserWarning):
+    """A value that is valid but more likely given in the wrong unit."""
+
+
+class NotFittedError(ValueError, AttributeError):
+    """A result asked of an estimator before :meth:`fit` (scikit-learn's name and bases, so
+    ``except NotFittedError`` and ``except ValueError`` both catch it)."""
+
+
+class Params:
+    """The scikit-learn estimator protocol for classes that keep their constructor's
+    arguments as given (``self._keep(locals())`` first thing in ``__init__``):
+    :meth:`get_params`, :meth:`set_params` (checked as the constructor checks), so
+    ``sklearn.base.clone`` works, and :meth:`reset` (a recursive filter back at its prior)."""
+
+    def _keep(self, args: dict) -> None:
+        self._params = {k: v for k, v in args.items() if k not in ("self", "__class__")}
+
+    def get_params(self, deep: bool = True) -> dict:
+        """The constructor's arguments, as given."""
+        return dict(self._params)
+
+    def set_params(self, **params):
+        """Change arguments (checked as the constructor checks them); returns self."""
+        unknown = set(params) - set(self._params)
+        if unknown:
+            raise ValueError(f"unknown parameters {sorted(unknown)}; {type(self).__name__} takes "
+                             f"{sorted(self._params)}")
+        self.__init__(**{**self._params, **params})
+        return self
+
+    def reset(self):
+        """Back to the state the constructor made (the prior, no fit); returns self."""
+        self.__init__(**self._params)
+        return self
+
+
+def check_number(name: str, value, lo: float = -np.inf, hi: float = np.inf, integer: bool = False,
+                 lo_open: bool = False, infinite: bool = False):
+    """``value`` as a number in ``[lo, hi]`` (``(lo, hi]`` with ``lo_open``), an integer with
+    ``integer``, finite unless ``infinite``; else a ValueError naming it."""
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+    if ok and integer:
+        ok = float(value).is_integer()
+    if ok:
+        v = float(value)
+        ok = (np.isfinite(v) or infinite and np.isinf(v)) and (v > lo if lo_open else v >= lo) and v <= hi
+    if not ok:
+        kind = "an integer" if integer else "a number"
+        where = f"{'(' if lo_open else '['}{lo:g}, {hi:g}]"
+        raise ValueError(f"{name} must be {kind} in {where}; got {value!r}")
+    return int(value) if integer else float(value)
 
 
 class ConvergenceWarning(UserWarning):
@@ -55,8 +110,10 @@ def convert(bearings, convention: str, to: str) -> np.ndarray:
     return np.pi - np.mod(np.pi - b, 2 * np.pi)
 
 
-def check_sigma(sigma, units: str = "rad") -> float:
-    """A bearing noise std in radians (``units="deg"`` converts)."""
+def check_sigma(sigma, units: str = "rad", hint: bool = True) -> float:
+    """A bearing noise std in radians (``units="deg"`` converts); with ``hint``, a
+    :class:`UnitsWarning` for radians above :data:`SIGMA_HINT_RAD` (``sigma=0.5`` meant as
+    degrees is 29 degrees in radians)."""
     _check("units", units, ("rad", "deg"))
     s = float(np.radians(sigma) if units == "deg" else sigma) if np.ndim(sigma) == 0 else np.nan
     if not np.isfinite(s) or s <= 0:
@@ -64,6 +121,9 @@ def check_sigma(sigma, units: str = "rad") -> float:
     if s > SIGMA_MAX_RAD:
         raise ValueError(f"sigma = {s:g} rad ({np.degrees(s):.3g} deg) is above {SIGMA_MAX_RAD} rad: probably "
                          "degrees; pass units='deg' to give degrees on purpose")
+    if hint and units == "rad" and s > SIGMA_HINT_RAD:
+        warnings.warn(f"sigma = {s:g} rad is {np.degrees(s):.3g} deg, a coarse bearing sensor: if you meant "
+                      f"{s:g} deg, pass units='deg' (or np.radians(sigma))", UnitsWarning, stacklevel=3)
     return s
 
 
@@ -131,9 +191,11 @@ def check_state(x0, p0) -> tuple[np.ndarray, np.ndarray]:
     return x, p
 
 
-class _Recursive:
+class _Recursive(Params):
     """What :class:`PLKF` and :class:`PLMMSE` share: the state, predict / update, a
-    whole sequence through :meth:`filter`, and the count of degenerate updates."""
+    whole sequence through :meth:`filter`, the count of degenerate updates, and
+    :class:`Params` (``reset()`` puts the filter back at its prior: a second
+    :meth:`filter` would otherwise continue from the first one's posterior)."""
 
     internal = "east-ccw"  # [Li2022], [Huang2021]: the code behind takes bearings from +x
 
@@ -150,8 +212,10 @@ class _Recursive:
         self.degenerate, self.missed = 0, 0
 
     def predict(self, dt: float | None = None) -> None:
-        """Move the estimate ``dt`` seconds (default the filter's) by the constant-velocity model."""
-        f, q = plkf.cv_model(self.dt if dt is None else float(dt), self.q if self.q.ndim else float(self.q))
+        """Move the estimate ``dt`` seconds (default the filter's; finite, >= 0) by the
+        constant-velocity model."""
+        dt = self.dt if dt is None else check_number("dt", dt, lo=0.0)
+        f, q = plkf.cv_model(dt, self.q if self.q.ndim else float(self.q))
         x, p = plkf.predict(self.x[None], self.P[None], f, q)
         self.x, self.P = x[0], p[0]
 
@@ -208,9 +272,12 @@ class PLKF(_Recursive):
 
     def __init__(self, sigma, x0, P0, q=0.0, dt: float = 1.0, kind: str = "plkf",  # noqa: N803
                  convention: str = "north-cw", units: str = "rad", v_min: float = 0.0, v_max: float = np.inf):
+        self._keep(locals())
         _check("kind", kind, plkf.FILTERS)
         super().__init__(x0, P0, q, dt, convention, units)
         self.sigma, self.kind = check_sigma(sigma, units), kind
+        v_min = check_number("v_min", v_min, lo=0.0)
+        v_max = check_number("v_max", v_max, lo=v_min, infinite=True)
         self._options = {"v_min": v_min, "v_max": v_max} if kind == "vc-plkf" else {}
 
     def _update(self, x, p, beta, s):
@@ -227,6 +294,7 @@ class PLMMSE(_Recursive):
 
     def __init__(self, noise, x0, P0, q=0.0, dt: float = 1.0, kind: str = "pl-mmse",  # noqa: N803
                  convention: str = "north-cw", units: str = "rad", constraint=None):
+        self._keep(locals())
         _check("kind", kind, plmmse.FILTERS)
         super().__init__(x0, P0, q, dt, convention, units)
         if not isinstance(noise, plmmse.GaussianMixture):
@@ -235,7 +303,7 @@ class PLMMSE(_Recursive):
             raise ValueError(f"noise must be a scalar (bearing) mixture; got components of {noise.covs.shape[1:]}")
         else:
             for var in noise.covs[:, 0, 0]:
-                check_sigma(np.sqrt(var))  # a mixture is given in radians
+                check_sigma(np.sqrt(var), hint=False)  # a mixture is given in radians; outliers may be wide
         self.noise, self.kind, self.constraint = noise, kind, constraint
         self.estimate = self.x
 
@@ -250,17 +318,20 @@ class PLMMSE(_Recursive):
         return x, p, ok
 
 
-class ConstrainedMLE:
+class ConstrainedMLE(Params):
     """The intelligence-aware batch MLE of [Oliva2021] with the batch face of
     :class:`uavsim.estimators.nrpso.BatchTMA`: a polynomial track of ``order`` (1:
     constant velocity, ``x_ = [px, py, vx, vy]``; 2: constant acceleration, ``[.., ax,
     ay]``) at the first scan's time, fitted to the bearings by Levenberg-Marquardt and,
     with intelligence, by SLSQP subject to "inside every disc of ``inside``, outside every
     disc of ``outside``" at every scan time ([Oliva2021] Eq. 14).  ``cov_`` is the
-    unconstrained CRLB at the estimate ([Oliva2021] Eq. 16)."""
+    unconstrained CRLB at the estimate ([Oliva2021] Eq. 16).  Bearings default to
+    ``"north-cw"`` like every estimator here ([Oliva2021] measures from east,
+    anticlockwise: pass ``convention="east-ccw"`` for its data)."""
 
-    def __init__(self, sigma, inside=(), outside=(), order: int = 2, convention: str = "east-ccw",
+    def __init__(self, sigma, inside=(), outside=(), order: int = 2, convention: str = "north-cw",
                  units: str = "rad"):
+        self._keep(locals())
         from .intelligence import Disc
 
         _check("convention", convention, CONVENTIONS)
@@ -300,9 +371,14 @@ class ConstrainedMLE:
         return self
 
     def predict(self, times) -> np.ndarray:
-        """Positions ``(K, 2)`` of the fitted track at ``times``."""
+        """States ``[px, py, vx, vy]`` ``(K, 4)`` of the fitted track at ``times`` (as
+        :meth:`uavsim.estimators.nrpso.BatchTMA.predict`; the acceleration of order 2 is
+        ``x_[4:]``)."""
         from .batch import polynomial_basis
 
         if not hasattr(self, "x_"):
-            raise ValueError("call fit before predict")
-        return polynomial_basis(np.asarray(times, float), self.order, t_ref=self.t0_) @ self.x_
+            raise NotFittedError("this ConstrainedMLE is not fitted: call fit before predict")
+        t = np.asarray(times, float)
+        pos = polynomial_basis(t, self.order, t_ref=self.t0_) @ self.x_
+        vel = polynomial_basis(t, self.order - 1, t_ref=self.t0_) @ self.x_[2:]
+        return np.concatenate([pos, vel], axis=-1)

@@ -41,7 +41,6 @@ matrix) and the NR step to 0.2% (4%).  The statistics of the study do not move
 
 from __future__ import annotations
 
-import inspect
 import warnings
 from dataclasses import dataclass
 
@@ -285,7 +284,7 @@ def _outward_rise(prob: Problem, x: np.ndarray, lam: np.ndarray) -> np.ndarray:
     return Evaluator(prob.data).nll(far[:, None])[:, 0] - lam
 
 
-class BatchTMA:
+class BatchTMA(api.Params):
     """Batch maximum-likelihood TMA of a constant-velocity target, [Oh2021]'s way, with a
     scikit-learn face: settings here, :meth:`fit` on data, results in attributes.
 
@@ -341,28 +340,27 @@ class BatchTMA:
                  n_iter: int = 50, alpha: float = 0.25, c_l: float = 1.55, c_g: float = 0.15, c_n: float = 0.1,
                  n_thr: float = 1e-4, carry: str = "move", area: SearchArea = SearchArea(), dtype=np.float32,
                  convention: str = "north-cw", units: str = "rad", damped: bool = True, polish: bool = True):
+        self._keep(locals())
         if method not in METHODS:
             raise ValueError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
         _check("convention", convention, api.CONVENTIONS)
+        _check("carry", carry, ("move", "pso"))
+        for name in ("n_candidates", "max_iter", "n_particles", "n_iter"):
+            api.check_number(name, locals()[name], lo=1, integer=True)
+        for name in ("tol", "alpha", "c_l", "c_g", "c_n", "n_thr"):
+            api.check_number(name, locals()[name], lo=0.0)
+        if not isinstance(area, SearchArea):
+            raise ValueError(f"area must be a SearchArea(range_max, speed_max, n_sigma); got {area!r}")
+        for name in ("range_max", "speed_max", "n_sigma"):
+            api.check_number(f"area.{name}", getattr(area, name), lo=0.0, lo_open=True)
+        if np.dtype(dtype) not in (np.float32, np.float64):
+            raise ValueError(f"dtype must be numpy.float32 or numpy.float64; got {dtype!r}")
         self._sigma = api.check_sigma(sigma, units)
         self.sigma, self.method, self.rng, self.convention, self.units = sigma, method, rng, convention, units
         self.n_candidates, self.max_iter, self.tol, self.hessian = n_candidates, max_iter, tol, hessian
         self.n_particles, self.n_iter, self.alpha, self.c_l, self.c_g = n_particles, n_iter, alpha, c_l, c_g
         self.c_n, self.n_thr, self.carry, self.area, self.dtype = c_n, n_thr, carry, area, dtype
         self.damped, self.polish = damped, polish
-
-    def get_params(self, deep: bool = True) -> dict:
-        """The constructor's settings (scikit-learn's protocol)."""
-        return {name: getattr(self, name) for name in inspect.signature(type(self).__init__).parameters
-                if name != "self"}
-
-    def set_params(self, **params) -> BatchTMA:
-        """Change settings (checked as the constructor checks them); returns self."""
-        unknown = set(params) - set(self.get_params())
-        if unknown:
-            raise ValueError(f"unknown parameters {sorted(unknown)}; BatchTMA takes {sorted(self.get_params())}")
-        self.__init__(**{**self.get_params(), **params})
-        return self
 
     def fit(self, times, bearings, observer_positions) -> BatchTMA:
         """``times (K,)`` s; ``bearings (K,)`` or ``(R, K)`` in the estimator's ``convention``
@@ -385,8 +383,11 @@ class BatchTMA:
         """The fitted track at ``times (K,)``: states ``(K, 4)`` (``(R, K, 4)`` after a
         batch fit), constant velocity from ``x_`` at the first fitted time."""
         if not hasattr(self, "x_"):
-            raise ValueError("call fit before predict")
-        dt = np.asarray(times, dtype=float) - self.t0_
+            raise api.NotFittedError("this BatchTMA is not fitted: call fit before predict")
+        t = np.asarray(times, dtype=float)
+        if t.ndim != 1 or not np.isfinite(t).all():
+            raise ValueError(f"times must be a 1-D array of finite seconds; got shape {t.shape}")
+        dt = t - self.t0_
         x = np.asarray(self.x_)[..., None, :]
         return np.concatenate([x[..., :2] + dt[:, None] * x[..., 2:], np.broadcast_to(x[..., 2:], (*x.shape[:-2],
                                                                                                  len(dt), 2))], -1)
