@@ -31,6 +31,24 @@ def test_crlb_recursion_equals_the_joint_fisher_information():
     np.testing.assert_allclose(crlb(truth, obs, sig, sc.f, sc.q, sc.p0)[-1], direct, rtol=1e-9)
 
 
+def test_a_deterministic_truth_has_the_information_of_its_start_carried_along():
+    """Q = 0: x_k = F^k x_0 exactly, so the information on x_k is that on x_0 (the prior
+    plus every bearing's, each through F^j) carried by F^-k: the recursion against that
+    sum, and the random-truth bound (with the filters' Q) above it (it cannot know less)."""
+    sc = scenario("huang2021-scenario2")
+    k = 40
+    truth, obs, sig = sc.truth[:k], sc.observer[:k], sc.sigma_true[:k]
+    h = bearing_gradients(truth, obs)
+    info0 = np.linalg.inv(sc.p0) + sum(np.linalg.matrix_power(sc.f, j).T @ np.outer(h[j], h[j])
+                                       @ np.linalg.matrix_power(sc.f, j) / sig[j] ** 2 for j in range(k))
+    fk = np.linalg.matrix_power(sc.f, k - 1)
+    direct = fk @ np.linalg.inv(info0) @ fk.T
+    bound = crlb(truth, obs, sig, sc.f, np.zeros((4, 4)), sc.p0)
+    np.testing.assert_allclose(bound[-1], direct, rtol=1e-8)
+    noisy = crlb(truth, obs, sig, sc.f, sc.q, sc.p0)
+    assert np.all(np.linalg.eigvalsh(noisy[-1] - bound[-1]) > -1e-9 * np.abs(noisy[-1]).max())
+
+
 def test_bearing_gradient_by_finite_differences():
     x, s = np.array([1000.0, 1000, 10, -10]), np.array([500.0, 500])
 

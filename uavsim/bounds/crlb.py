@@ -36,14 +36,25 @@ def bearing_gradients(truth: np.ndarray, observer: np.ndarray) -> np.ndarray:
 def crlb(truth: np.ndarray, observer: np.ndarray, sigma: np.ndarray, f: np.ndarray, q: np.ndarray,
          p0: np.ndarray) -> np.ndarray:
     """Bounds ``J_k^-1`` (K, 4, 4) on the error covariance of any unbiased estimate of the
-    state at scans k = 1..K, given bearings with std ``sigma (K,)`` (rad) from ``observer``."""
+    state at scans k = 1..K, given bearings with std ``sigma (K,)`` (rad) from ``observer``.
+
+    ``q`` is the truth's process noise: a positive definite ``Q`` for a truth that is
+    random (the information form of Tichavsky et al.), or zeros for a deterministic truth
+    (a known path: then ``J_k = F^-T J_{k-1} F^-1 + I_k``, the information of the start
+    carried along; a simulated deterministic truth is bounded only by this one)."""
     h = bearing_gradients(truth, observer)
     info = h[:, :, None] * h[:, None, :] / np.broadcast_to(sigma, (len(truth),))[:, None, None] ** 2  # (K, 4, 4)
-    qi = np.linalg.inv(q)
-    d11, d12 = f.T @ qi @ f, -f.T @ qi
     j = np.linalg.inv(p0) + info[0]
     out = np.empty((len(truth), 4, 4))
     out[0] = np.linalg.inv(j)
+    if not np.any(q):
+        fi = np.linalg.inv(f)
+        for k in range(1, len(truth)):
+            j = fi.T @ j @ fi + info[k]
+            out[k] = np.linalg.inv(j)
+        return out
+    qi = np.linalg.inv(q)
+    d11, d12 = f.T @ qi @ f, -f.T @ qi
     for k in range(1, len(truth)):
         j = qi + info[k] - d12.T @ np.linalg.solve(j + d11, d12)
         out[k] = np.linalg.inv(j)
