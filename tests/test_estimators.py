@@ -206,3 +206,30 @@ def test_a_sigma_that_looks_like_degrees_is_a_hint():
         warnings.simplefilter("error")
         PLKF(0.5, units="deg", **PRIOR)
         PLKF(SIGMA, **PRIOR)
+
+
+def test_ub_and_vc_say_their_estimate_depends_on_the_origin():
+    """[Huang2021]'s scenario 2: UB- and VC-PLKF weigh the bearings by alpha = -d / (u . s),
+    far from 1 at most scans there (the target 1-2 km from an origin it keeps leaving);
+    translating the scenario moves their track (and not IV-PLKF's), and an OriginWarning
+    says so; IV-PLKF raises none."""
+    from uavsim.estimators import OriginWarning
+    from uavsim.studies.huang2021_scenarios import draw_runs, scenario
+
+    sc = scenario("huang2021-scenario2")
+    x0, b = draw_runs(sc, 1, 5)
+    t = np.arange(len(sc.truth), dtype=float)
+
+    def run(kind, shift):
+        f = PLKF(sc.sigma, x0[0] + np.r_[shift, 0.0, 0.0], sc.p0, kind=kind, convention="east-ccw")
+        return f.filter(t, b[0], sc.observer + shift)[0][:, :2] - shift
+
+    for kind in ("ub-plkf", "vc-plkf"):
+        with pytest.warns(OriginWarning, match=rf"{kind}: its estimate depends on the coordinate origin"):
+            a = run(kind, np.zeros(2))
+        with pytest.warns(OriginWarning):
+            moved = run(kind, np.array([2000.0, 0.0]))
+        assert np.abs(a - moved).max() > 100  # metres: the translation changed the track
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", OriginWarning)
+        np.testing.assert_allclose(run("iv-plkf", np.zeros(2)), run("iv-plkf", np.array([2000.0, 0.0])), atol=1e-5)

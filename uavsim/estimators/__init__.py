@@ -25,12 +25,12 @@ _EXPORTS = {
     "CONVENTIONS": "api", "PLKF": "api", "PLMMSE": "api", "ConstrainedMLE": "api", "DegenerateUpdateWarning": "api",
     "convert": "api", "Disc": "intelligence", "BatchTMA": "nrpso", "GaussianMixture": "plmmse",
     "NotFittedError": "api", "ConvergenceWarning": "api", "SearchAreaWarning": "api", "UnitsWarning": "api",
-    "SearchArea": "nrpso",
+    "OriginWarning": "api", "SearchArea": "nrpso",
 }
 
 __all__ = ["PLKF", "PLMMSE", "BatchTMA", "ConstrainedMLE", "Disc", "GaussianMixture", "CONVENTIONS", "convert",
            "DegenerateUpdateWarning", "NotFittedError", "ConvergenceWarning", "SearchAreaWarning", "UnitsWarning",
-           "SearchArea"]
+           "OriginWarning", "SearchArea"]
 
 
 def __getattr__(name: str):
