@@ -239,15 +239,18 @@ def test_plan_json_is_one_readable_object(capsys):
 
 
 def test_run_explains_its_nees_lines(capsys, tmp_path):
-    """Under the NEES lines: what is averaged (n = trials x targets), the interval (chi-square
-    with n x dof degrees of freedom, / n, the printed band) and what a consistent filter gives."""
+    """Each NEES line says in one word whether the filter is consistent, pessimistic or
+    overconfident; one line under them says what is averaged (n = trials x targets) and
+    what the band means; the band is chi-square with n x dof degrees of freedom, / n; the
+    guidance plans are counted in words."""
     from scipy import stats
 
     assert main(["run", M, "--trials", "2", "--steps", "1", "--quiet", "--workers", "1", "--out",
                  str(tmp_path)]) == 0
     out = " ".join(capsys.readouterr().out.split())
-    assert "averaged each step over the n = 2 x 4 = 8 trial-targets" in out
-    assert "chi-square with n x dof degrees of freedom, divided by n: it lies in the band with probability 95%, " \
-           "so about 95% of steps fall inside and the mean is near dof" in out
+    assert "averaged each step over the n = 2 x 4 = 8 trial-targets; a consistent filter's average is in the " \
+           "band at about 95% of steps" in out
     lo, hi = stats.chi2.ppf([0.025, 0.975], 8 * 2) / 8
-    assert "NEES position (dof 2): mean" in out and f"95% band [{lo:.2f}, {hi:.2f}]" in out
+    assert re.search(r"NEES position \(dof 2\): (consistent|pessimistic|overconfident): mean", out)
+    assert f"95% band [{lo:.2f}, {hi:.2f}]" in out and out.count("(NEES: the error weighted") == 1
+    assert re.search(r"guidance plans: \d+ optimal", out) and "{'optimal'" not in out

@@ -20,7 +20,6 @@ import re
 import signal
 import sys
 import tempfile
-import textwrap
 import threading
 import time
 import warnings
@@ -364,7 +363,7 @@ def _print_summary(s: dict) -> None:
         print(f"  {'':<8}tracks declared lost by the filter and re-seeded from the bearings: {declared}")
     for key, label in (("pos", "position"), ("state", "state")):
         n = s["nees"][key]
-        print(f"  NEES {label} (dof {n['dof']}): mean {np.mean(n['mean']):.2f}, {n['level']:.0%} band "
+        print(f"  NEES {label} (dof {n['dof']}): {_verdict(n)}: mean {np.mean(n['mean']):.2f}, {n['level']:.0%} band "
               f"[{n['band'][0]:.2f}, {n['band'][1]:.2f}]: inside {n['inside']:.0%} of steps, "
               f"below {n['below']:.0%}, above {n['above']:.0%}")
     c = s["calibration"]
@@ -373,22 +372,25 @@ def _print_summary(s: dict) -> None:
           f"of steps; truth outside the belief's 95% region at {c['outside_95']:.0%} of target-steps")
     print(_nees_note(s["trials"], len(s["targets"]), s["nees"]["pos"]["level"]))
     t = s["timing"]
+    plans = ", ".join(f"{v} {k}" for k, v in s["guidance_status"].items()) or "none"
     print(f"  median s/step: guidance {t['guidance']:.3f}, filter {t['filter']:.3f}, planner {t['planner']:.4f}, "
-          f"truth {t['truth']:.3f}, total {t['total']:.3f}; guidance plans {s['guidance_status']}")
+          f"truth {t['truth']:.3f}, total {t['total']:.3f}; guidance plans: {plans}")
     print(f"  truth steps touching an obstacle: {s.get('truth_collisions', 0)} (every step, from the start)")
 
 
+def _verdict(n: dict) -> str:
+    """One word for a NEES line (:func:`uavsim.metrics.consistency`): consistent when at
+    least 80% of the band's share of steps is inside it, else the side most steps miss on."""
+    if n["inside"] >= 0.8 * n["level"]:
+        return "consistent"
+    return "pessimistic" if n["below"] >= n["above"] else "overconfident"
+
+
 def _nees_note(trials: int, targets: int, level: float) -> str:
-    """What the NEES lines mean (:func:`uavsim.metrics.consistency`), under them."""
-    n = trials * targets
-    return textwrap.fill(
-        f"NEES = e' P^-1 e, the error of the estimate weighted by the filter's inverse covariance, averaged each step "
-        f"over the n = {trials} x {targets} = {n} trial-targets. For a consistent filter that average is chi-square "
-        f"with n x dof degrees of freedom, divided by n: it lies in the band with probability {level:.0%}, so about "
-        f"{level:.0%} of steps fall inside and the mean is near dof. Below the band the covariance is wider than the "
-        "errors (pessimistic); above, narrower (overconfident). The credible level does not assume a Gaussian: below "
-        "0.50 the truths sit nearer the estimate than the belief expects.", width=110, initial_indent="    ",
-        subsequent_indent="    ")
+    """What the NEES lines mean, once, under them."""
+    return (f"  (NEES: the error weighted by the inverse covariance, averaged each step over the n = {trials} x "
+            f"{targets} = {trials * targets} trial-targets; a consistent filter's average is in the band at about "
+            f"{level:.0%} of steps; pessimistic: below it, the covariance wider than the errors; overconfident: above)")
 
 
 def cmd_run(args: argparse.Namespace) -> int:
