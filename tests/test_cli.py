@@ -17,7 +17,7 @@ from uavsim.cli import build_parser, main
 from uavsim.config import load_mission
 from uavsim.guidance import SOLVERS, Guidance
 
-from .conftest import PAPER
+from .conftest import PAPER, ROOT
 
 M = str(PAPER)
 QUICK = ["--trials", "1", "--steps", "1", "--quiet"]
@@ -254,3 +254,22 @@ def test_run_explains_its_nees_lines(capsys, tmp_path):
     assert re.search(r"NEES position \(dof 2\): (consistent|pessimistic|overconfident): mean", out)
     assert f"95% band [{lo:.2f}, {hi:.2f}]" in out and out.count("(NEES: the error weighted") == 1
     assert re.search(r"guidance plans: \d+ optimal", out) and "{'optimal'" not in out
+
+
+def test_the_command_line_reference_is_current():
+    """docs/cli.md is every command's --help (regenerate: see uavsim.cli.reference)."""
+    from uavsim.cli import reference
+
+    assert (ROOT / "docs" / "cli.md").read_text() == reference()
+
+
+def test_the_installation_page_names_every_extra_and_core_dependency():
+    import tomllib
+
+    meta = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    page = (ROOT / "docs" / "install.md").read_text()
+    for extra in meta["optional-dependencies"]:
+        assert f"| `{extra}` |" in page, extra
+    for dep in meta["dependencies"]:
+        name = dep.split(">")[0].split("<")[0].split("=")[0].split("[")[0]
+        assert {"osmium": "pyosmium"}.get(name, name) in page, name

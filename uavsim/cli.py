@@ -843,6 +843,35 @@ def _interrupt_once(signum, frame) -> None:
     raise KeyboardInterrupt
 
 
+def reference() -> str:
+    """``docs/cli.md``: every command's ``--help``, from the parser itself (regenerate:
+    ``python -c "from uavsim.cli import reference; print(reference(), end='')" > docs/cli.md``;
+    a test checks it is current).  Formatted 100 columns wide whatever the terminal."""
+    out = ["# Command-line reference", "",
+           "Generated from the command line's own parser (`uavsim COMMAND --help` prints the same; a test",
+           "checks this page is current). Mission settings are on the [settings page](settings.md).", ""]
+    previous = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = "100"
+    try:
+        def walk(parser: argparse.ArgumentParser, name: str) -> None:
+            out.extend([f"## {name}", "", "```text", parser.format_help().rstrip(), "```", ""])
+            for action in parser._actions:
+                if isinstance(action, argparse._SubParsersAction):
+                    seen = set()
+                    for sub_name, sub in action.choices.items():
+                        if id(sub) not in seen:
+                            seen.add(id(sub))
+                            walk(sub, f"{name} {sub_name}")
+
+        walk(build_parser(), "uavsim")
+    finally:
+        if previous is None:
+            os.environ.pop("COLUMNS", None)
+        else:
+            os.environ["COLUMNS"] = previous
+    return "\n".join(out)
+
+
 def main(argv: list[str] | None = None) -> int:
     if threading.current_thread() is threading.main_thread():
         previous = signal.signal(signal.SIGINT, _interrupt_once)
