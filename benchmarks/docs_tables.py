@@ -340,6 +340,23 @@ def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | 
     return out
 
 
+def tables_bo_standard(data: dict | None) -> dict[str, str]:
+    """The standard bearings-only benchmark (``bo_standard.py``): per scenario and method the
+    final position RMSE, its ratio to the Bayesian CRLB, lost tracks, NEES, time."""
+    if data is None:
+        return {}
+    f = data["figures"]
+    rows = []
+    for name, s in f["scenarios"].items():
+        for method, m in s["methods"].items():
+            rows.append([name, f"{s['bound_final_m']:.0f}", method, f"{m['rmse_m']:.0f}", f"{m['ratio']:.2f}",
+                         f"{m['median_m']:.0f}", f"{m['lost']:.1%}", f"{m['nees_pos']:.2f}",
+                         f"{1e3 * m['seconds_per_run']:.2f}"])
+    return {"bo-standard": md(["scenario", "Bayesian CRLB (m)", "method", "RMSE (m)", "RMSE / CRLB", "median (m)",
+                               "lost", "NEES (dof 2)", "ms per run"], rows)
+            + f"\n\n{f['runs']} runs a scenario, seed {f['seed']}; the last scan. " + provenance(data)}
+
+
 def pages() -> dict[Path, dict[str, str]]:
     studies = _load(DATA / "tma-studies.json")
     cities = {f"cities-{k}": _load(DATA / f"{f}.json") for k, f in (("scaling", "scaling"),
@@ -366,7 +383,8 @@ def pages() -> dict[Path, dict[str, str]]:
             DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
                                                 **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
                                                                    "lookahead-clusters2")},
-            DOCS / "results" / "stonesoup.md": tables_stonesoup(_load(DATA / "vs-stonesoup.json"))}
+            DOCS / "results" / "stonesoup.md": tables_stonesoup(_load(DATA / "vs-stonesoup.json")),
+            DOCS / "results" / "bo-standard.md": tables_bo_standard(_load(DATA / "bo-standard.json"))}
 
 
 def build(args) -> None:

@@ -50,9 +50,9 @@ def test_the_bearings_buy_an_estimate_the_prior_alone_does_not_give():
 def test_degrees_are_refused_unless_asked_for():
     b = bearings()
     for make in (lambda: PLMMSE(SIGMA, **PRIOR), lambda: PLKF(SIGMA, **PRIOR)):
-        with pytest.raises(ValueError, match=r"outside \[-pi, pi\]: probably degrees; pass units='deg'"):
+        with pytest.raises(ValueError, match=r"outside \[-2 pi, 2 pi\]: probably degrees; pass units='deg'"):
             make().filter(TIMES, np.degrees(b), OBS)
-    with pytest.raises(ValueError, match=r"outside \[-pi, pi\]: probably degrees"):
+    with pytest.raises(ValueError, match=r"outside \[-2 pi, 2 pi\]: probably degrees"):
         BatchTMA(SIGMA).fit(TIMES, np.degrees(b), OBS)
     with pytest.raises(ValueError, match=r"sigma = 1 rad \(57.3 deg\) is above 0.5 rad: probably degrees"):
         PLMMSE(1.0, **PRIOR)
@@ -233,3 +233,17 @@ def test_ub_and_vc_say_their_estimate_depends_on_the_origin():
     with warnings.catch_warnings():
         warnings.simplefilter("error", OriginWarning)
         np.testing.assert_allclose(run("iv-plkf", np.zeros(2)), run("iv-plkf", np.array([2000.0, 0.0])), atol=1e-5)
+
+
+def test_compass_bearings_in_radians_are_wrapped_not_refused():
+    """A bearing in [0, 2 pi) (compass style) or a noisy one just past pi is radians: it
+    was refused as "probably degrees" above pi; now it gives the same track as its
+    wrapped value (bearings of this data shifted by 2 pi where negative)."""
+    b = bearings()
+    compass = np.where(b < 0, b + 2 * np.pi, b) + 0.0
+    compass[0] = np.pi + 0.01  # just past pi, as noise makes it
+    wrapped = compass.copy()
+    wrapped[0] -= 2 * np.pi
+    for make in (lambda: PLMMSE(SIGMA, **PRIOR), lambda: PLKF(SIGMA, kind="iv-plkf", **PRIOR)):
+        np.testing.assert_allclose(make().filter(TIMES, compass, OBS)[0], make().filter(TIMES, wrapped, OBS)[0],
+                                   rtol=1e-9, atol=1e-6)

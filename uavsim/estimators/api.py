@@ -14,7 +14,8 @@ observers) -> self`` with ``x_``, ``cov_``, ``converged_`` and ``predict(times)`
 or ``"east-ccw"`` (from +x, anticlockwise, ``atan2(dy, dx)``: [Oliva2021]'s, [Li2022]'s,
 [Huang2021]'s); each is converted once, here, to the convention of the code behind.
 ``units="deg"`` takes bearings and ``sigma`` in degrees on purpose; otherwise a bearing
-outside [-pi, pi] or a ``sigma`` above 0.5 rad is refused as probably degrees.  State
+outside [-2 pi, 2 pi] (compass bearings in [0, 2 pi) and noisy ones just past pi are
+radians; they are wrapped) or a ``sigma`` above 0.5 rad is refused as probably degrees.  State
 ``[px, py, vx, vy]`` (m, m/s).
 """
 
@@ -148,9 +149,9 @@ def check_bearings(bearings, convention: str, to: str, units: str = "rad", missi
         i = int(np.flatnonzero(bad.ravel())[0])
         raise ValueError(f"bearings[{i}] = {b.ravel()[i]} is not finite" +
                          ("" if missing else " (a recursive filter takes NaN as a missed scan)"))
-    if np.any(np.abs(b[np.isfinite(b)]) > np.pi + 1e-9):
+    if np.any(np.abs(b[np.isfinite(b)]) > 2 * np.pi + 1e-9):
         i = int(np.argmax(np.abs(np.where(np.isfinite(b), b, 0)).ravel()))
-        raise ValueError(f"bearings[{i}] = {b.ravel()[i]:g} is outside [-pi, pi]: probably degrees; pass "
+        raise ValueError(f"bearings[{i}] = {b.ravel()[i]:g} is outside [-2 pi, 2 pi]: probably degrees; pass "
                          "units='deg' to give degrees on purpose (or np.radians(bearings))")
     return convert(b, convention, to)
 
