@@ -46,6 +46,25 @@ def test_the_reference_page_is_current():
     assert (ROOT / "docs" / "settings.md").read_text() == reference()
 
 
+def test_the_world_format_page_is_current_and_its_example_loads(tmp_path):
+    """docs/world-format.md is what the world's declarations say (regenerate: python -m
+    uavsim.writer world), its example (a cuboid and a prism) is a world the reader takes,
+    and a key the declarations lack is refused, named."""
+    import re
+
+    from uavsim.config import load_world
+    from uavsim.writer import world_reference
+
+    page = (ROOT / "docs" / "world-format.md").read_text()
+    assert page == world_reference()
+    (tmp_path / "w.toml").write_text(re.search(r"```toml\n(.*?)```", page, re.S).group(1))
+    w = load_world(tmp_path / "w.toml")
+    assert (w.name, w.n_obstacles, [g.name for g in w.goals]) == ("example", 2, ["depot"])
+    (tmp_path / "bad.toml").write_text((tmp_path / "w.toml").read_text().replace("size_m", "size_m_x"))
+    with pytest.raises(MissionError, match=r"goals\[0\]\.size_m: missing required key \(found 'size_m_x'"):
+        load_world(tmp_path / "bad.toml")
+
+
 @pytest.mark.parametrize("path", MISSIONS, ids=[p.stem for p in MISSIONS])
 def test_shipped_missions_round_trip(tmp_path, path):
     m = load_mission(path)

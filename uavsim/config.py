@@ -39,7 +39,9 @@ from .uav.fixed import FIXED_FRACTIONS, fixed_sensor_problem
 from .uav.grid import uav_start
 from .uav.manoeuvres import default_sizes, manoeuvre_loop
 from .world import GoalRegion, Polygons, Region2D, World, convex_ccw, fmt, inside_polytopes
-from .world.model import GROUND_BAND_M
+from .world.model import GROUND_BAND_M, WORLD_KEYS
+
+_W = {table: {s.key: s for s in keys} for table, keys in WORLD_KEYS.items()}  # the world's declarations by key
 
 MAX_FILE_BYTES = 16 * 2**20  # a mission or world file larger than this is not one a person wrote
 MAX_COORDINATE_M = 1e7  # 10 000 km: an area beyond this is a unit mistake, and squares of it overflow
@@ -271,9 +273,9 @@ def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> Wo
     """Read and validate a world file."""
     path = Path(path)
     top = _Table(path, "", _load_toml(path, referrer))
-    name = top.string("name", default=path.stem)
+    name = top.read(_W["(top level)"]["name"], path.stem)
     area = top.table("area")
-    lo, hi = area.array("min_m", (3,)), area.array("max_m", (3,))
+    lo, hi = area.read(_W["[area]"]["min_m"]), area.read(_W["[area]"]["max_m"])
     for key, corner in (("min_m", lo), ("max_m", hi)):
         if np.any(np.abs(corner) > MAX_COORDINATE_M):
             area.fail(key, f"coordinates beyond +-{MAX_COORDINATE_M:g} m are not a world (got {fmt(corner)})")
@@ -286,7 +288,7 @@ def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> Wo
 
     footprints, z, names = [], [], []
     for i, t in enumerate(top.tables("obstacles", optional=True)):
-        names.append(t.string("name", default=f"obstacle{i}"))
+        names.append(t.read(_W["[[obstacles]]"]["name"], f"obstacle{i}"))
         if names[-1] in names[:-1]:
             t.fail("name", f"'{names[-1]}' is also the name of obstacles[{names.index(names[-1])}]; names must be "
                            "unique")
@@ -298,10 +300,11 @@ def load_world(path: str | Path, referrer: tuple[Path, str] | None = None) -> Wo
 
     goals, goal_tables = [], top.tables("goals")
     for t in goal_tables:
-        centre, size = t.array("center_m", (2,)), t.array("size_m", (2,))
+        g = _W["[[goals]]"]
+        centre, size = t.read(g["center_m"]), t.read(g["size_m"])
         if np.any(size <= 0):
             t.fail("size_m", f"must be positive, got {size.tolist()}")
-        goals.append(GoalRegion(t.string("name"), centre - size / 2, centre + size / 2))
+        goals.append(GoalRegion(t.read(g["name"]), centre - size / 2, centre + size / 2))
         t.finish()
     top.finish()
 
@@ -319,18 +322,19 @@ def _obstacle(t: _Table) -> tuple[np.ndarray, np.ndarray]:
     """An obstacle's footprint ``(k, 2)`` and ``[z_min, z_max]``: a cuboid (``min_m``,
     ``max_m``) or a vertical prism over a convex polygon (``footprint_m``, counter-clockwise
     ``[x, y]`` vertices, and ``z_m``)."""
+    o = {k: replace(s, derived="") for k, s in _W["[[obstacles]]"].items()}  # required in their branch
     if t.has("footprint_m") or t.has("z_m"):
         for other in ("min_m", "max_m"):
             if t.has(other):
                 t.fail(other, "an obstacle is a cuboid (min_m, max_m) or a prism (footprint_m, z_m), not both")
-        footprint, z_range = t.array("footprint_m", (None, 2)), t.array("z_m", (2,))
+        footprint, z_range = t.read(o["footprint_m"]), t.read(o["z_m"])
         problem = convex_ccw(footprint)
         if problem:
             t.fail("footprint_m", f"must be a convex polygon listed counter-clockwise; this one {problem}")
         if z_range[1] <= z_range[0]:
             t.fail("z_m", f"must be [z_min, z_max] with z_max > z_min, got {z_range.tolist()}")
         return footprint, z_range
-    o_lo, o_hi = t.array("min_m", (3,)), t.array("max_m", (3,))
+    o_lo, o_hi = t.read(o["min_m"]), t.read(o["max_m"])
     if np.any(o_hi <= o_lo):
         t.fail("max_m", f"must exceed min_m in every axis, got min {o_lo.tolist()} max {o_hi.tolist()}")
     return np.array([o_lo[:2], [o_hi[0], o_lo[1]], o_hi[:2], [o_lo[0], o_hi[1]]]), np.array([o_lo[2], o_hi[2]])

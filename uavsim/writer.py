@@ -130,17 +130,45 @@ def reference() -> str:
            "the mission) is required; `[uav.operating_region]` is an optional box (`min_m`, `max_m`) or",
            "convex polygon (`vertices_m`) the UAV stays in.", ""]
     for header, declared in sections():
-        out += [f"## {header}", "", "| key | unit | default | range | meaning |", "|---|---|---|---|---|"]
-        if header == "(top level)":
-            out.append("| world | | required | | the world file, relative to the mission file |")
-        for spec in declared:
-            default = ("required" if spec.required else f"derived: {spec.derived}" if spec.derived
-                       else f"`{value_text(spec.default)}`")
-            doc = re.sub(r"\[([A-Z][A-Za-z]+\d{4})(?=[],])", r"[[\1](references.md)", spec.doc)  # key -> link
-            out.append(f"| {spec.key} | {spec.unit} | {default} | {spec.range_text()} | {doc} |")
-        out.append("")
+        extra = ["| world | | required | | the world file, relative to the mission file |"] if header == "(top level)" \
+            else []
+        out += _table(header, declared, extra)
+    return "\n".join(out)
+
+
+def _table(header: str, declared, extra: list[str] = ()) -> list[str]:
+    """One table's section of a reference page: key, unit, default, range, meaning."""
+    out = [f"## {header}", "", "| key | unit | default | range | meaning |", "|---|---|---|---|---|", *extra]
+    for spec in declared:
+        default = ("required" if spec.required else spec.derived if spec.derived.startswith("required")
+                   else f"derived: {spec.derived}" if spec.derived else f"`{value_text(spec.default)}`")
+        doc = re.sub(r"\[([A-Z][A-Za-z]+\d{4})(?=[],])", r"[[\1](references.md)", spec.doc)  # key -> link
+        out.append(f"| {spec.key} | {spec.unit} | {default} | {spec.range_text()} | {doc} |")
+    return out + [""]
+
+
+def world_reference() -> str:
+    """``docs/world-format.md``: every key of a world file from its declaration
+    (:data:`uavsim.world.model.WORLD_KEYS`, which the reader reads through)."""
+    from .world.model import WORLD_KEYS
+
+    out = ["# World files", "",
+           "Generated from the world's declarations (`python -m uavsim.writer world > docs/world-format.md`;",
+           "a test checks it is current).  A mission names its world (`world = \"worlds/paper.toml\"`); a key",
+           "not listed here is refused.  Coordinates are metres, z up; the ground is z = 0.  An obstacle is",
+           "a cuboid (`min_m`, `max_m`) or a vertical prism over a convex footprint (`footprint_m`, `z_m`),",
+           "not both; `uavsim world generate` and `uavsim world import` write worlds of either kind.", "",
+           "```toml", "name = \"example\"", "", "[area]", "min_m = [0.0, 0.0, 0.0]", "max_m = [1000.0, 1000.0, 200.0]",
+           "", "[[obstacles]]", "name = \"block\"", "min_m = [300.0, 450.0, 0.0]", "max_m = [450.0, 600.0, 60.0]", "",
+           "[[obstacles]]", "name = \"tower\"", "footprint_m = [[600.0, 600.0], [700.0, 620.0], [650.0, 700.0]]",
+           "z_m = [0.0, 90.0]", "", "[[goals]]", "name = \"depot\"", "center_m = [500.0, 150.0]",
+           "size_m = [100.0, 100.0]", "```", ""]
+    for header, declared in WORLD_KEYS.items():
+        out += _table(header, declared)
     return "\n".join(out)
 
 
 if __name__ == "__main__":
-    print(reference(), end="")
+    import sys
+
+    print(world_reference() if sys.argv[1:] == ["world"] else reference(), end="")

@@ -20,6 +20,8 @@ from functools import cached_property
 
 import numpy as np
 
+from ..declare import Spec
+
 # Outward normals of an axis-aligned cuboid, in the order +x, -x, +y, -y, +z, -z.
 CUBOID_NORMALS = np.array(
     [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=float
@@ -450,3 +452,34 @@ def ground_footprints(footprints: Polygons, z_lo: np.ndarray, z_hi: np.ndarray, 
     z_lo, z_hi = np.reshape(z_lo, -1), np.reshape(z_hi, -1)
     kept = np.flatnonzero((z_lo - margin < -band) & (z_hi + margin > band))
     return kept, footprints.take(kept).inflated(margin)
+
+
+# A world file, table by table: every key the reader accepts (uavsim.config.load_world reads
+# through these; docs/world-format.md is generated from them).  An obstacle is a cuboid
+# (min_m, max_m) or a vertical prism (footprint_m, z_m), not both.
+WORLD_KEYS = {
+    "(top level)": (Spec("name", "string", "the world's label", derived="the file's name without .toml"),),
+    "[area]": (
+        Spec("min_m", "array", "the area's lower corner [x, y, z]; z <= 0: the ground z = 0, where the targets "
+             "and goals are, lies in it", unit="m", shape=(3,)),
+        Spec("max_m", "array", "the upper corner [x, y, z], above min_m in every axis", unit="m", shape=(3,)),
+    ),
+    "[[obstacles]]": (
+        Spec("name", "string", "the obstacle's label, unique", derived="obstacle0, obstacle1, ... by position"),
+        Spec("min_m", "array", "a cuboid's lower corner [x, y, z] (with max_m), inside the area", unit="m",
+             shape=(3,), derived="required for a cuboid"),
+        Spec("max_m", "array", "a cuboid's upper corner, above min_m in every axis", unit="m", shape=(3,),
+             derived="required for a cuboid"),
+        Spec("footprint_m", "array", "a vertical prism's convex footprint [[x, y], ...], counter-clockwise (with "
+             "z_m)", unit="m", shape=(None, 2), derived="required for a prism"),
+        Spec("z_m", "array", "the prism's [z_min, z_max], z_max above z_min", unit="m", shape=(2,),
+             derived="required for a prism"),
+    ),
+    "[[goals]]": (
+        Spec("name", "string", "the goal region's label, unique (targets name it)"),
+        Spec("center_m", "array", "the rectangle's centre [x, y] (its centroid G_o, Eq. 7), on the ground, "
+             "outside obstacles", unit="m", shape=(2,)),
+        Spec("size_m", "array", "its width and depth [dx, dy], positive; the rectangle lies in the area", unit="m",
+             shape=(2,)),
+    ),
+}
