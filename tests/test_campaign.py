@@ -283,7 +283,7 @@ def nan_copy(src, dest):
     np.savez(dest, **arrays)
 
 
-@pytest.mark.parametrize("damage", ["copied", "empty", "nan", "foreign"])
+@pytest.mark.parametrize("damage", ["copied", "empty", "nan", "foreign", "zip-version"])
 def test_a_damaged_or_foreign_trial_file_is_set_aside_and_run_again(made, tmp_path, capsys, damage):
     """trial-00000 copied over trial-00001 (its stored index says 0), a 0-byte file (it
     raised EOFError), a NaN in a well-formed file (it was summed: bare NaN in the summary),
@@ -296,6 +296,10 @@ def test_a_damaged_or_foreign_trial_file_is_set_aside_and_run_again(made, tmp_pa
         shutil.copy(out / "trials" / "trial-00000.npz", target)
     elif damage == "empty":
         target.write_bytes(b"")
+    elif damage == "zip-version":  # a flipped "version needed" byte: numpy raised NotImplementedError
+        data = bytearray(target.read_bytes())
+        data[data.index(b"PK\x01\x02") + 6] = 109  # the first central-directory entry's version needed: 10.9
+        target.write_bytes(bytes(data))
     elif damage == "nan":
         nan_copy(target, target.with_suffix(".tmp.npz"))
         os.replace(target.with_suffix(".tmp.npz"), target)
@@ -308,6 +312,7 @@ def test_a_damaged_or_foreign_trial_file_is_set_aside_and_run_again(made, tmp_pa
     assert main([*args, "--out", str(out)]) == 0
     err = capsys.readouterr().err.strip().splitlines()
     why = {"copied": "holds trial 0, not trial 1 as its name says", "empty": "not a readable trial file (EOFError",
+           "zip-version": "not a readable trial file (NotImplementedError: zip file version 10.9",
            "nan": "holds values that are not finite (err2)",
            "foreign": "written by another campaign (its key is not this campaign's)"}[damage]
     assert len(err) == 1 and err[0].startswith(f"warning: {target}: {why}"), err
@@ -447,12 +452,16 @@ DAMAGE = st.one_of(
 )
 
 
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=300, deadline=None, derandomize=True, database=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(damage=st.lists(DAMAGE, min_size=1, max_size=3))
 def test_random_damage_is_refused_or_recovered_never_summed(made, tmp_path_factory, damage):
     """Bytes flipped or cut anywhere in trial files or the manifest, files swapped: reading
     the folder either refuses it (CampaignError) or returns trials that are exactly the
-    ones written; a damaged trial is set aside, never returned."""
+    ones written; a damaged trial is set aside, never returned.  (Derandomized, 300
+    examples; 3000 pass too.  An undirected run found a flipped zip version byte raising
+    NotImplementedError, which escaped the reader: now any error reading a file makes it
+    unreadable.)"""
     mission, _, clean, _ = made
     m = load_mission(mission, {"trials": 2, "steps": 2, "seed": 5})
     key = trial_key(m, "optimized")
