@@ -70,3 +70,13 @@ def test_the_docs_extra_brings_what_the_gallery_imports():
                 module == "gymnasium" and "uavsim.env" in text)  # the env imports Gymnasium
             if uses:
                 assert package in docs, f"{path.name} imports {module}: add {package} to the docs extra"
+
+
+def test_the_api_reference_names_every_public_estimator():
+    """docs/api.md renders each name the estimator package exports (constants aside)."""
+    import uavsim.estimators as est
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "api.md").read_text()
+    missing = [n for n in est.__all__ if n.isidentifier() and not n.isupper()
+               and not any(line.startswith(":::") and line.endswith(f".{n}") for line in page.splitlines())]
+    assert missing == [], f"add to docs/api.md: {missing}"

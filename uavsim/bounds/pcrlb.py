@@ -418,10 +418,16 @@ def pcrlb_planned(sensitivity: np.ndarray, truth: np.ndarray, observers: np.ndar
 
     Parameters
     ----------
-    sensitivity : (trials, T, M, 4, 4) or (T, M, 4, 4) ``d x_k / d x_0`` on ``[x, y, vx,
-    vy]`` at steps 1..T (``StepInfo.sensitivity``); truth : (trials, T, M, 6) or (T, M, 6)
-    true states; observers : (trials, T, S, 3) or (T, S, 3); cov0 : (M, 6, 6) priors
-    ``Sigma_0`` (their [x, y, vx, vy] block is used); sensor : the observers' sensor.
+    sensitivity : (trials, T, M, 4, 4) or (T, M, 4, 4)
+        ``d x_k / d x_0`` on ``[x, y, vx, vy]`` at steps 1..T (``StepInfo.sensitivity``).
+    truth : (trials, T, M, 6) or (T, M, 6)
+        The true states.
+    observers : (trials, T, S, 3) or (T, S, 3)
+        The sensor positions.
+    cov0 : (M, 6, 6)
+        The priors ``Sigma_0`` (their ``[x, y, vx, vy]`` block is used).
+    sensor : Sensor
+        The observers' sensor.
 
     Returns
     -------

@@ -310,9 +310,12 @@ class BatchTMA(api.Params):
         range runs off to infinity the swarm's best stays, ``converged_`` False); ``False``
         is [Oh2021]'s swarm alone (50 iterations: variance 2-3x the CRLB, ``converged_``
         rarely true).
-    Other settings as in :func:`newton_raphson` and :func:`swarm` (the paper's values).
-    The paper's own study (:mod:`uavsim.studies.oh2021`) runs the functions undamped and
-    unpolished.
+    n_candidates, max_iter, tol, hessian, n_particles, n_iter, alpha, c_l, c_g, c_n, n_thr, carry, dtype
+        As in :func:`newton_raphson` and :func:`swarm` (the paper's values); the paper's
+        own study (:mod:`uavsim.studies.oh2021`) runs those functions undamped and
+        unpolished.
+    convention, units
+        The bearings' convention and unit (:mod:`uavsim.estimators.api`).
 
     Attributes after :meth:`fit` (leading ``R`` axis when ``bearings`` was ``(R, K)``)
     --------------------------------------------------------------------------------
