@@ -42,10 +42,13 @@ import numpy as np
 from harness import parser, run
 
 from uavsim import metrics
+from uavsim.bounds.pcrlb import bearing_gradients
 from uavsim.estimators import BatchTMA, convert
 from uavsim.estimators.plkf import PseudoLinearKF, cv_model
+from uavsim.estimators.plkf import predict as plkf_predict
 from uavsim.estimators.plmmse import UPDATES as PLMMSE_UPDATES
 from uavsim.estimators.plmmse import GaussianMixture
+from uavsim.sensing import wrap_angle
 
 DT, SCANS, Q_PSD = 60.0, 32, 1e-5
 LOST = 0.25  # a track is lost when its final error exceeds this share of the target's range
@@ -104,10 +107,8 @@ def bound(sc: Scenario, truth: np.ndarray) -> np.ndarray:
     _, p0 = prior(sc)
     f = cv_model(DT, 0.0)[0]
     fi = np.linalg.inv(f)
-    d = truth[..., :2] - ownship()
-    r2 = (d**2).sum(-1)
-    h = np.zeros((*d.shape[:2], 4))
-    h[..., 0], h[..., 1] = d[..., 1] / r2, -d[..., 0] / r2  # grad of atan2(dx, dy)
+    h = np.zeros((*truth.shape[:2], 4))
+    h[..., :2] = bearing_gradients(truth[:, :, None, :2], ownship()[None, :, None])[:, :, 0, 0]
     info = np.einsum("rki,rkj->kij", h, h) / len(truth) / np.radians(sc.sigma_deg) ** 2
     j, out = np.linalg.inv(p0) + info[0], np.empty(SCANS)
     for k in range(SCANS):  # a recursion over scans
@@ -144,7 +145,7 @@ def plmmse(sc, bearings, m0, p0):
     east, obs = convert(bearings, "north-cw", "east-ccw"), ownship()
     for k in range(SCANS):
         if k:
-            x, p = x @ f.T, f @ p @ f.T + q
+            x, p = plkf_predict(x, p, f, q)
         x, p, _ = PLMMSE_UPDATES["pl-mmse"](x, p, east[:, k], obs[k], noise)
     return x, p
 
@@ -178,18 +179,18 @@ def ckf(sc, bearings, m0, p0):
     unit = np.sqrt(4.0) * np.concatenate([np.eye(4), -np.eye(4)])  # (8, 4)
     for k in range(SCANS):
         if k:
-            x, p = x @ f.T, f @ p @ f.T + q
+            x, p = plkf_predict(x, p, f, q)
         s = np.linalg.cholesky(p)
         pts = x[:, None] + np.einsum("rij,pj->rpi", s, unit)  # (R, 8, 4)
         d = pts[..., :2] - obs[k]
         d0 = x[:, :2] - obs[k]
         centre = np.arctan2(d0[:, 0], d0[:, 1])
-        z = centre[:, None] + _wrap(np.arctan2(d[..., 0], d[..., 1]) - centre[:, None])
+        z = centre[:, None] + wrap_angle(np.arctan2(d[..., 0], d[..., 1]) - centre[:, None])
         zh = z.mean(1)
         pzz = ((z - zh[:, None]) ** 2).mean(1) + var
         pxz = ((pts - x[:, None]) * (z - zh[:, None])[..., None]).mean(1)
         gain = pxz / pzz[:, None]
-        x = x + gain * _wrap(bearings[:, k] - zh)[:, None]
+        x = x + gain * wrap_angle(bearings[:, k] - zh)[:, None]
         p = p - pzz[:, None, None] * gain[:, :, None] * gain[:, None, :]
         p = 0.5 * (p + np.swapaxes(p, 1, 2))
     return x, p
@@ -209,7 +210,7 @@ def rpf(sc, bearings, m0, p0, seed=0):
         if k:
             x = x @ f.T
         d = x[..., :2] - obs[k]
-        logw += -0.5 * (_wrap(bearings[:, k, None] - np.arctan2(d[..., 0], d[..., 1])) / sig) ** 2
+        logw += -0.5 * (wrap_angle(bearings[:, k, None] - np.arctan2(d[..., 0], d[..., 1])) / sig) ** 2
         logw -= logw.max(1, keepdims=True)
         w = np.exp(logw)
         w /= w.sum(1, keepdims=True)
@@ -231,10 +232,6 @@ def rpf(sc, bearings, m0, p0, seed=0):
     mean = np.einsum("rn,rni->ri", w, x)
     dev = x - mean[:, None]
     return mean, np.einsum("rn,rni,rnj->rij", w, dev, dev)
-
-
-def _wrap(a):
-    return np.pi - np.mod(np.pi - a, 2 * np.pi)
 
 
 METHODS = {"no-update control": control, "IV-PLKF": plkf("iv-plkf"), "BC-PLKF": plkf("bc-plkf"),
