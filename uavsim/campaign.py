@@ -402,7 +402,7 @@ def save_trial(folder: Path, r: TrialResult, key: str) -> None:
                              "written: this is a defect of uavsim, please report it with the mission and the seed")
     buf = io.BytesIO()
     meta = np.array(json.dumps({"statuses": r.statuses, "events": list(r.events), "collisions": r.collisions,
-                                "fingerprint": key, "format": FORMAT}))
+                                "trial_key": key, "format": FORMAT}))
     np.savez(buf, index=r.index, err2=r.err2, trace=r.trace, nees_pos=r.nees_pos, nees_state=r.nees_state,
              seconds=r.seconds, truth=r.truth, observers=r.observers,
              sensitivity=r.sensitivity, level=r.level, meta=meta)
@@ -427,7 +427,7 @@ def _read_trial(path: Path, k: int, key: str | None) -> TrialResult:
         raise _Unusable(f"not a readable trial file ({type(exc).__name__}: {exc})") from None
     if r.index != k:
         raise _Unusable(f"holds trial {r.index}, not trial {k} as its name says")
-    if key is not None and meta.get("fingerprint") != key:
+    if key is not None and meta.get("trial_key") != key:
         raise _Unusable("written by another campaign (its key is not this campaign's)")
     try:
         bad = _not_finite(r)
