@@ -42,13 +42,12 @@ import numpy as np
 from harness import parser, run
 
 from uavsim import metrics
-from uavsim.bounds.pcrlb import bearing_gradients
 from uavsim.estimators import BatchTMA, convert
 from uavsim.estimators.plkf import PseudoLinearKF, cv_model
 from uavsim.estimators.plkf import predict as plkf_predict
 from uavsim.estimators.plmmse import UPDATES as PLMMSE_UPDATES
 from uavsim.estimators.plmmse import GaussianMixture
-from uavsim.sensing import wrap_angle
+from uavsim.sensing import bearing_gradients, wrap_angle
 
 DT, SCANS, Q_PSD = 60.0, 32, 1e-5
 LOST = 0.25  # a track is lost when its final error exceeds this share of the target's range

@@ -30,7 +30,7 @@ def decision_seconds(mission, repeats=200) -> np.ndarray:
     out = []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        decide(cands, ok, lambda c: sim.belief.traces(c, mission.sensor.sigma))
+        decide(cands, ok, lambda c: sim.belief.traces(c, mission.sensor))
         out.append(time.perf_counter() - t0)
     return np.array(out)
 

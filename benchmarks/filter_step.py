@@ -117,7 +117,7 @@ def decision_runs(versions: dict, sizes, repeats: int) -> dict:
         for n in sizes:  # sizes interleaved too, so load drifts hit every N alike
             for key in (list(versions) if r % 2 else list(versions)[::-1]):
                 t0 = time.perf_counter()
-                versions[key].pseudo_traces(cands, *data[n], sigma)
+                (getattr(versions[key], "bearing_traces", None) or versions[key].pseudo_traces)(cands, *data[n], sigma)
                 out[key, n].append(time.perf_counter() - t0)
     return out
 

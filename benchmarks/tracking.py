@@ -49,6 +49,7 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "stochastic-truth": ("optimized", {"truth": "stochastic"}),
     "one-level": ("optimized", {"filter.noise_scales": [1.0]}),  # the mission's filter less its noise levels
     "no-loss-detection": ("optimized", {"filter.loss_nats": 0.0}),  # ... less its track-loss detection
+    "no-line-of-sight": ("optimized", {"sensor.line_of_sight": False}),  # bearings through buildings (the paper's)
 }
 
 
@@ -75,7 +76,9 @@ def figures(s: dict) -> dict:
             "nees_pos_below": nees["below"], "nees_pos_above": nees["above"],
             "level_mean": float(np.mean(s["calibration"]["mean"])), "level_inside": s["calibration"]["inside"],
             "outside_95": s["calibration"]["outside_95"],
-            "step_seconds_median": s["timing"]["total"], "truth_collisions": s["truth_collisions"]}
+            "step_seconds_median": s["timing"]["total"], "planner_seconds_median": s["timing"]["planner"],
+            "occluded": None if s.get("occluded_per_target") is None else float(np.mean(s["occluded_per_target"])),
+            "truth_collisions": s["truth_collisions"]}
 
 
 def run_world(world: str, n: int, variants: list[str], args) -> list[dict]:
@@ -96,13 +99,14 @@ def run_world(world: str, n: int, variants: list[str], args) -> list[dict]:
 def table(rows: list[dict]) -> str:
     head = ["world", "targets", "UAV / filter", "RMSE m (no info)", "ratio", "targets below no info",
             "lost target-trials", "re-seeded", "NEES pos mean", "NEES in band / below / above",
-            "credible level mean (in band)", "truth outside 95%", "step s p50"]
+            "credible level mean (in band)", "truth outside 95%", "line of sight blocked", "step s p50"]
     body = [[r["world"], r["targets"], r["variant"], f"{r['rmse']:.1f} ({r['baseline_rmse']:.1f})",
              f"{r['ratio']:.2f}", f"{100 * r['targets_below_baseline']:.0f}%",
              f"{r['lost']} / {r['target_trials']}", r["losses_declared"], f"{r['nees_pos_mean']:.2f}",
              f"{100 * r['nees_pos_inside']:.0f} / {100 * r['nees_pos_below']:.0f} / "
              f"{100 * r['nees_pos_above']:.0f}%", f"{r['level_mean']:.2f} ({100 * r['level_inside']:.0f}%)",
-             f"{100 * r['outside_95']:.1f}%", f"{r['step_seconds_median']:.2f}"] for r in rows]
+             f"{100 * r['outside_95']:.1f}%", "off" if r.get("occluded") is None else f"{100 * r['occluded']:.0f}%",
+             f"{r['step_seconds_median']:.2f}"] for r in rows]
     return markdown_table(head, body)
 
 

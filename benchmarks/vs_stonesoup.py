@@ -75,10 +75,10 @@ from stonesoup.types.state import BernoulliParticleState, ParticleState, State
 from stonesoup.types.track import Track
 from stonesoup.updater.particle import BernoulliParticleUpdater, ParticleUpdater
 
-from uavsim.belief.particle import ParticleFilter, log_likelihood, scan_loglik
-from uavsim.belief.traces import pseudo_traces
+from uavsim.belief.particle import ParticleFilter
+from uavsim.belief.traces import bearing_traces
 from uavsim.config import load_mission
-from uavsim.sensing import Sensor, observe, wrap_angle
+from uavsim.sensing import BearingModel, log_likelihood, observe, scan_loglik, wrap_angle
 from uavsim.uav import candidates, decide
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -93,7 +93,7 @@ class ClutteredBearings(MeasurementModel):
     whole scan (``n x 1`` bearings in uavsim's convention, from north clockwise)."""
 
     observer: np.ndarray = Property(doc="(2,) sensor position")
-    sensor: Sensor = Property(doc="uavsim sensor settings")
+    sensor: BearingModel = Property(doc="uavsim sensor settings")
 
     @property
     def ndim_meas(self):
@@ -322,7 +322,7 @@ def decision_benchmark(repeats: int, n: int = 5000) -> dict:
     ours_t, theirs_t = [], []
     for _rep in range(repeats):
         t0 = time.perf_counter()
-        best, _ = decide(cands, ok, lambda c: pseudo_traces(c, pf.particles, pf.weights, sigma))
+        best, _ = decide(cands, ok, lambda c: bearing_traces(c, pf.particles, pf.weights, sigma))
         t1 = time.perf_counter()
         config, = manager.choose_actions(tracks, T0)
         t2 = time.perf_counter()

@@ -10,11 +10,10 @@ the comparisons allow rounding and nothing more; the tolerances are derived belo
 import numpy as np
 import pytest
 
-from uavsim.belief.particle import log_likelihood
 from uavsim.campaign import trial_seeds
 from uavsim.config import load_mission
 from uavsim.guidance import Plan
-from uavsim.sensing import Sensor
+from uavsim.sensing import BearingModel, log_likelihood
 from uavsim.sim import Simulation
 
 from .conftest import PAPER, ROOT
@@ -34,7 +33,7 @@ def test_likelihood_matches_the_stored_outputs(case):
     the likelihood (-inf) must stay exactly -inf."""
     p = f"lik/{case}/"
     sigma, pd, lam = REF[p + "sensor"]
-    got = log_likelihood(REF[p + "bearings"], REF[p + "valid"], REF[p + "expected"], Sensor(sigma, pd, lam))
+    got = log_likelihood(REF[p + "bearings"], REF[p + "valid"], REF[p + "expected"], BearingModel(sigma, pd, lam))
     want = REF[p + "loglik"]
     finite = np.isfinite(want)
     np.testing.assert_array_equal(got[~finite], want[~finite])

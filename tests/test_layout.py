@@ -12,7 +12,7 @@ import pytest
 from uavsim.belief import KINDS, FilterConfig, make_belief
 from uavsim.campaign import trial_seeds
 from uavsim.config import load_mission
-from uavsim.sensing import Sensor, observe
+from uavsim.sensing import BearingModel, observe
 from uavsim.sim import Simulation
 from uavsim.targets import Dynamics
 from uavsim.uav import POLICIES
@@ -212,7 +212,7 @@ def test_every_belief_kind_through_the_interface(belief):
     mean0, cov0 = belief.moments()
     assert belief.update([], np.zeros((0, 3)), None) == []
     np.testing.assert_array_equal(belief.moments()[0], mean0)
-    sensor = Sensor(np.radians(1.0), 1.0, 0.0)
+    sensor = BearingModel(np.radians(1.0), 1.0, 0.0)
     observer = np.array([250.0, 0.0, 40.0])
     truth = mean0[:, :3]
     belief.update([observe(np.random.default_rng(0), sensor, truth, observer)], observer[None], sensor)
@@ -220,7 +220,7 @@ def test_every_belief_kind_through_the_interface(belief):
     assert mean.shape == (2, 6) and cov.shape == (2, 6, 6) and np.isfinite(cov).all()
     np.testing.assert_allclose(cov, cov.transpose(0, 2, 1), atol=1e-9)
     assert np.all(np.trace(cov[:, :2, :2], axis1=1, axis2=2) < np.trace(cov0[:, :2, :2], axis1=1, axis2=2))
-    traces = belief.traces(np.array([[250.0, 0.0, 40.0], [0.0, 250.0, 40.0]]), sensor.sigma)
+    traces = belief.traces(np.array([[250.0, 0.0, 40.0], [0.0, 250.0, 40.0]]), sensor)
     assert traces.shape == (2, 2) and np.all(traces < np.trace(cov, axis1=1, axis2=2) + 1e-9)
     samples = belief.samples()
     assert samples is None or samples.shape == (2, 4000, 6)

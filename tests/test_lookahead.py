@@ -56,7 +56,7 @@ def test_one_scan_is_eq13_on_gaussian_beliefs():
     mean4[:, :2] = mean[:, :2]
     cov6 = np.zeros_like(cov)
     cov6[:, :4, :4] = cov4  # [x, y, vx, vy] in the slots gaussian_traces reads as x, y, ...
-    want = gaussian_traces(cands, mean4, cov6, m.sensor.sigma / np.sqrt(q2)).sum(axis=1)
+    want = gaussian_traces(cands, mean4, cov6, m.sensor, info_factor=q2).sum(axis=1)
     np.testing.assert_allclose(got, want, rtol=1e-12)
 
 

@@ -10,12 +10,10 @@ from uavsim.belief.particle import (
     ParticleBelief,
     ParticleFilter,
     halves,
-    log_likelihood,
     systematic_indices,
-    uniform_loglik,
     weighted_moments,
 )
-from uavsim.sensing import Sensor, wrap_angle
+from uavsim.sensing import BearingModel, log_likelihood, uniform_loglik, wrap_angle
 from uavsim.targets import Dynamics
 
 
@@ -54,14 +52,14 @@ def test_closed_form_matches_eq10_with_factorials(lam, pd, n):
     bearings = np.zeros((1, k))
     bearings[0, :n] = phis
     valid = np.arange(k)[None, :] < n
-    got = np.exp(log_likelihood(bearings, valid, expected[None, :], Sensor(sigma, pd, lam)))[0]
+    got = np.exp(log_likelihood(bearings, valid, expected[None, :], BearingModel(sigma, pd, lam)))[0]
     want = np.array([eq10_brute_force(phis, e, lam, pd, sigma) for e in expected])
     np.testing.assert_allclose(got, want, rtol=1e-11, atol=1e-300)
 
 
 def test_impossible_sets_are_minus_infinity_not_nan():
     """Two measurements without clutter, or a miss when p_D = 1: likelihood zero."""
-    s = Sensor(math.radians(1), 1.0, 0.0)
+    s = BearingModel(math.radians(1), 1.0, 0.0)
     bearings, valid = np.zeros((2, 2)), np.array([[True, True], [False, False]])
     out = log_likelihood(bearings, valid, np.zeros((2, 5)), s)
     assert np.all(out == -np.inf) and not np.isnan(out).any()
@@ -70,7 +68,7 @@ def test_impossible_sets_are_minus_infinity_not_nan():
 def test_log_domain_survives_large_sets():
     """400 false alarms: (1/2pi)^400 ~ 1e-320 underflows a product; the log does not."""
     n = 400
-    s = Sensor(math.radians(1), 0.95, 400.0)
+    s = BearingModel(math.radians(1), 0.95, 400.0)
     bearings = np.linspace(-3, 3, n)[None, :]
     out = log_likelihood(bearings, np.ones((1, n), bool), np.array([[0.0, 1.0]]), s)
     assert np.all(np.isfinite(out))
@@ -109,7 +107,7 @@ def test_uniform_loglik_is_eq10_averaged_over_the_circle(lam, pd, n):
     bearings = np.zeros((1, k))
     bearings[0, :n] = rng.uniform(-math.pi, math.pi, n)
     valid = np.arange(k)[None, :] < n
-    s = Sensor(math.radians(5.0), pd, lam)
+    s = BearingModel(math.radians(5.0), pd, lam)
     grid = np.linspace(-math.pi, math.pi, 200_000, endpoint=False)[None, :]
     want = np.log(np.exp(log_likelihood(bearings, valid, grid, s)).mean())
     np.testing.assert_allclose(uniform_loglik(valid, s), [want], rtol=1e-9)
@@ -129,7 +127,7 @@ def test_track_loss_is_declared_from_the_bearings_not_by_chance():
     (3.0-3.7 nats) against a threshold of 10."""
     from uavsim.sensing import observe
 
-    s = Sensor(math.radians(1.0), 0.95, 1.0)
+    s = BearingModel(math.radians(1.0), 0.95, 1.0)
     truth, observer = np.array([[0.0, 400.0, 0.0]]), np.zeros(3)
     rng = np.random.default_rng(7)
     on, off = _belief_on(truth[0, :2], 5.0, 10.0), _belief_on(truth[0, :2] + [100.0, 0.0], 5.0, 10.0)
@@ -145,7 +143,7 @@ def test_track_loss_is_declared_from_the_bearings_not_by_chance():
 
 
 def test_loss_detection_off_never_declares():
-    s = Sensor(math.radians(1.0), 0.95, 1.0)
+    s = BearingModel(math.radians(1.0), 0.95, 1.0)
     from uavsim.sensing import observe
 
     b, rng = _belief_on(np.array([100.0, 400.0]), 5.0, 0.0), np.random.default_rng(1)

@@ -2,7 +2,7 @@
 
 The IRF is checked three independent ways: its exact limits, a Monte Carlo of the score
 through the simulator's own sensor (``sensing.observe``) and set likelihood
-(``belief.particle.log_likelihood``, Eq. 10), and the first-order clutter term by 2-D adaptive
+(``sensing.log_likelihood``, Eq. 10), and the first-order clutter term by 2-D adaptive
 quadrature.  The recursion is checked against the inverse of the batch Fisher information
 of a whole 3-step track and against closed forms.  Statistical tolerances are 4 standard
 errors of the estimator for the sample size used (a correct IRF fails with probability
@@ -17,17 +17,14 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from uavsim.belief.particle import log_likelihood
 from uavsim.bounds.pcrlb import (
     _q2_quadrature,
-    bearing_gradients,
-    expected_information,
     information_reduction_factor,
     pcrlb,
     pcrlb_for_trials,
     pcrlb_planned,
 )
-from uavsim.sensing import Sensor, bearing, observe, wrap_angle
+from uavsim.sensing import BearingModel, bearing, bearing_gradients, log_likelihood, observe, wrap_angle
 from uavsim.targets import Dynamics, transition_matrices
 
 DEG = np.pi / 180
@@ -59,7 +56,7 @@ def test_irf_against_monte_carlo_of_the_simulated_scan(sigma_deg, pd, lam):
     """q2 = sigma^2 E[(d log g / d l)^2] with scans drawn by ``observe`` and g of Eq. (10)
     by ``log_likelihood`` (central difference in the bearing l).  Control variate: the
     detected target's squared residual, whose mean is exactly p_D."""
-    sensor, n = Sensor(sigma_deg * DEG, pd, lam), 50_000
+    sensor, n = BearingModel(sigma_deg * DEG, pd, lam), 50_000
     targets, observer = np.tile([[100.0, 300.0]], (n, 1)), np.zeros(2)
     scan = observe(np.random.default_rng(18), sensor, targets, observer)
     l0, dl = bearing(targets[0], observer), 1e-4 * sensor.sigma
@@ -140,7 +137,7 @@ def test_paper_model_equals_its_horizontal_subsystem():
     p06 = np.diag([200.0, 200, 1e-10, 20, 20, 1e-10])
     truth = np.concatenate([rng.uniform(0, 1000, (3, 6, 4, 2)), np.zeros((3, 6, 4, 4))], -1)  # 3 trials
     obs = np.concatenate([rng.uniform(0, 1000, (3, 6, 1, 2)), np.full((3, 6, 1, 1), 40.0)], -1)
-    sensor = Sensor(1 * DEG, 0.95, 1.0)
+    sensor = BearingModel(1 * DEG, 0.95, 1.0)
     b = pcrlb_for_trials(truth, obs, Dynamics(1.0, 0.2, 1300.0, q6), p06, sensor)
     q2 = information_reduction_factor(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
     h = bearing_gradients(truth, obs)[..., 0, :]  # (3, 6, 4, 2)
@@ -155,7 +152,7 @@ def test_one_step_closed_form_with_fixed_sensors():
     h2 = (0, -1/r2), so after one step P_xy = diag(1 / (1/250 + q2 / (sigma r1)^2),
     1 / (1/250 + q2 / (sigma r2)^2)); P-_xy = diag(200 + 20 + 30) for [Papaioannou2023]'s A, Q, Sigma_0.
     Two trials with one sensor each average to half of each term."""
-    sensor = Sensor(1 * DEG, 0.95, 1.0)
+    sensor = BearingModel(1 * DEG, 0.95, 1.0)
     q2 = information_reduction_factor(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
     dyn = Dynamics(1.0, 0.2, 1300.0, np.diag([30.0, 30, 1e-10, 3, 3, 1e-10]))
     p0 = np.diag([200.0, 200, 1e-10, 20, 20, 1e-10])
@@ -176,7 +173,7 @@ def test_no_sensor_gives_the_prediction():
     """S = 0 (the baseline): the bound is the open-loop covariance of Eq. (6)."""
     dyn = Dynamics(1.0, 0.2, 1300.0, np.diag([30.0, 30, 1e-10, 3, 3, 1e-10]))
     p0 = np.diag([200.0, 200, 1e-10, 20, 20, 1e-10])
-    b = pcrlb_for_trials(np.zeros((5, 2, 6)), np.zeros((5, 0, 3)), dyn, p0, Sensor(1 * DEG, 0.95, 1.0))
+    b = pcrlb_for_trials(np.zeros((5, 2, 6)), np.zeros((5, 0, 3)), dyn, p0, BearingModel(1 * DEG, 0.95, 1.0))
     _, covs = dyn.predict_moments(np.zeros(6), p0, np.zeros((5, 3)))
     np.testing.assert_allclose(b.cov[:, 1], covs, rtol=1e-12)
 
@@ -187,14 +184,15 @@ def test_bound_falls_as_sigma_falls():
     obs = np.concatenate([rng.uniform(0, 1000, (4, 10, 1, 2)), np.full((4, 10, 1, 1), 40.0)], -1)
     dyn = Dynamics(1.0, 0.2, 1300.0, np.diag([30.0, 30, 1e-10, 3, 3, 1e-10]))
     p0 = np.diag([200.0, 200, 1e-10, 20, 20, 1e-10])
-    pos = [pcrlb_for_trials(truth, obs, dyn, p0, Sensor(s * DEG, 0.95, 1.0)).pos_per_target for s in (4, 2, 1, 0.5)]
+    pos = [pcrlb_for_trials(truth, obs, dyn, p0, BearingModel(s * DEG, 0.95, 1.0)).pos_per_target
+           for s in (4, 2, 1, 0.5)]
     assert all(np.all(lo < hi) for lo, hi in zip(pos[1:], pos[:-1]))
 
 
 @pytest.mark.parametrize("kwargs, match", [
-    ({"sensor": Sensor(0.5, 0.95, 1.0)}, "sigma must be in"),
-    ({"sensor": Sensor(DEG, 1.2, 1.0)}, "p_detect must be in"),
-    ({"sensor": Sensor(DEG, 0.9, -1.0)}, "clutter_rate must be"),
+    ({"sensor": BearingModel(0.5, 0.95, 1.0)}, "sigma must be in"),
+    ({"sensor": BearingModel(DEG, 1.2, 1.0)}, "p_detect must be in"),
+    ({"sensor": BearingModel(DEG, 0.9, -1.0)}, "clutter_rate must be"),
     ({"observers": np.zeros((4, 1, 3))}, "differ in trials or steps"),
     ({"observers": np.tile([[[10.0, 20.0, 40.0]]], (3, 1, 1))}, "exactly above a target"),
     ({"cov0": -np.eye(6)}, "cov0 must be symmetric positive semi-definite"),
@@ -202,7 +200,8 @@ def test_bound_falls_as_sigma_falls():
 ])
 def test_bad_input_is_refused(kwargs, match):
     args = {"truth": np.tile([[[10.0, 20.0, 0, 0, 0, 0]]], (3, 1, 1)), "observers": np.zeros((3, 1, 3)),
-            "dynamics": Dynamics(1.0, 0.2, 1300.0, np.eye(6)), "cov0": np.eye(6), "sensor": Sensor(DEG, 0.95, 1.0)}
+            "dynamics": Dynamics(1.0, 0.2, 1300.0, np.eye(6)), "cov0": np.eye(6),
+            "sensor": BearingModel(DEG, 0.95, 1.0)}
     with pytest.raises(ValueError, match=match):
         pcrlb_for_trials(**{**args, **kwargs})
 
@@ -219,11 +218,9 @@ def test_planned_bound_of_a_free_track_is_the_noise_free_recursion():
     of the recursion with ``Q = 0``: the Van Trees bound on ``g_k(x_0)`` must equal it
     (two sensors, three trials, 4 steps)."""
     g, truth, obs, cov0 = _free_tracks(np.random.default_rng(3), trials=3)
-    sensor = Sensor(1 * DEG, 0.9, 2.0)
+    sensor = BearingModel(1 * DEG, 0.9, 2.0)
     b = pcrlb_planned(g, truth, obs, cov0, sensor)
-    q2 = information_reduction_factor(sensor.sigma, 0.9, 2.0)
-    ref = pcrlb(np.broadcast_to(P04, (2, 4, 4)), A4, np.zeros((4, 4)),
-                expected_information(truth, obs, sensor.sigma, q2))
+    ref = pcrlb(np.broadcast_to(P04, (2, 4, 4)), A4, np.zeros((4, 4)), sensor.information(truth, obs).mean(axis=0))
     np.testing.assert_allclose(b.cov, ref, rtol=1e-9, atol=1e-9)
 
 
@@ -296,7 +293,7 @@ def test_jackknife_standard_error_is_the_leave_one_out_spread():
     trial i, here recomputed by calling the bound on each subset (70 trials, so the
     leave-one-out runs in two chunks); identical trials give 0, one trial gives None."""
     rng = np.random.default_rng(11)
-    sensor = Sensor(1 * DEG, 0.9, 2.0)
+    sensor = BearingModel(1 * DEG, 0.9, 2.0)
     g, truth, obs, cov0 = _free_tracks(rng, 70)
     b = pcrlb_planned(g, truth, obs, cov0, sensor)
     loo = np.stack([pcrlb_planned(np.delete(g, i, 0), np.delete(truth, i, 0), np.delete(obs, i, 0), cov0,
@@ -314,7 +311,7 @@ def test_jackknife_standard_error_matches_the_spread_over_campaigns():
     [Efron1981], for this nonlinear statistic only roughly).  The spread's own relative
     standard error is 1/sqrt(2 x 300) = 4%: the band [0.85, 1.5] is 3.75 of them below 1."""
     rng = np.random.default_rng(5)
-    sensor = Sensor(1 * DEG, 0.9, 2.0)
+    sensor = BearingModel(1 * DEG, 0.9, 2.0)
     finals, ses = [], []
     for _ in range(300):
         b = pcrlb_planned(*_free_tracks(rng, 10), sensor)
@@ -333,7 +330,7 @@ def test_bound_margins_jackknife_the_rmse_and_the_bound_together():
     from uavsim.metrics import rmse_per_target
 
     rng = np.random.default_rng(8)
-    sensor = Sensor(1 * DEG, 0.9, 2.0)
+    sensor = BearingModel(1 * DEG, 0.9, 2.0)
     g, truth, obs, cov0 = _free_tracks(rng, 12)
     b = pcrlb_planned(g, truth, obs, cov0, sensor)
     err2 = (b.pos_per_target.T[None] ** 2) * rng.chisquare(2, (12, 4, 2)) / 2  # (trials, T, M), E = bound^2

@@ -7,7 +7,7 @@ import numpy as np
 
 from uavsim.belief import recovery
 from uavsim.config import load_mission
-from uavsim.sensing import Scan, Sensor
+from uavsim.sensing import BearingModel, Scan
 from uavsim.sim import Simulation
 from uavsim.world.routes import GoalField
 
@@ -24,7 +24,7 @@ def test_draws_lie_on_the_bearings_in_free_ground_heading_along_the_route():
     w, goal = m.world, m.targets[0].goal
     field = GoalField(w.goals[goal].centroid, w.ground(0.0)[1], w.area_lo, w.area_hi)
     rng = np.random.default_rng(3)
-    sensor = Sensor(math.radians(1.0), 0.95, 1.0)
+    sensor = BearingModel(math.radians(1.0), 0.95, 1.0)
     observer = np.array([[300.0, 300.0, 40.0]])
     scan = Scan(np.array([[0.6, -2.0]]), np.array([[True, True]]), np.array([[True, False]]))
     cloud = np.zeros((1, 1000, 6))

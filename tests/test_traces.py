@@ -5,8 +5,8 @@ import math
 
 import numpy as np
 
-from uavsim.belief.traces import pseudo_traces
-from uavsim.sensing import bearing, wrap_angle
+from uavsim.belief.traces import bearing_traces
+from uavsim.sensing import BearingModel, bearing, wrap_angle
 from uavsim.uav import decide, move_offsets
 
 SIGMA = math.radians(1.0)
@@ -37,11 +37,11 @@ def test_traces_and_choice_match_the_loop():
     weights = rng.dirichlet(np.ones(400), size=2)
     cands = np.column_stack([np.array([450.0, 300.0]) + move_offsets(5.0, 15, 4), np.full(61, 40.0)])
     want = brute_force(cands, particles, weights, SIGMA)
-    got = pseudo_traces(cands, particles, weights, SIGMA)
+    got = bearing_traces(cands, particles, weights, SIGMA)
     np.testing.assert_allclose(got, want, rtol=1e-5)  # float32 kernel on centred particles
     ok = np.ones(61, bool)
     ok[[5, 17]] = False
-    best, total = decide(cands, ok, lambda c: pseudo_traces(c, particles, weights, SIGMA))
+    best, total = decide(cands, ok, lambda c: bearing_traces(c, particles, weights, SIGMA))
     masked = np.where(ok, want.sum(1), np.inf)
     assert best == int(np.argmin(masked)) and np.isinf(total[[5, 17]]).all()
 
@@ -62,7 +62,7 @@ def test_blocks_over_particles_add_up_to_the_loop():
     particles = np.stack([wide[np.argsort(wide[:, 0])], narrow])
     weights = rng.dirichlet(np.ones(n), size=2)
     cands = np.column_stack([np.array([530.0, 60.0]) + move_offsets(5.0, 15, 4), np.full(61, 40.0)])
-    np.testing.assert_allclose(pseudo_traces(cands, particles, weights, SIGMA),
+    np.testing.assert_allclose(bearing_traces(cands, particles, weights, SIGMA),
                                brute_force(cands, particles, weights, SIGMA), rtol=1e-5)
 
 
@@ -72,7 +72,7 @@ def test_ties_go_to_the_lowest_index():
     weights = np.full((1, 200), 1 / 200)
     cands = np.tile([[100.0, 100.0, 40.0]], (5, 1))
     ok = np.array([False, True, True, True, True])
-    assert decide(cands, ok, lambda c: pseudo_traces(c, particles, weights, SIGMA))[0] == 1
+    assert decide(cands, ok, lambda c: bearing_traces(c, particles, weights, SIGMA))[0] == 1
 
 
 def test_moving_across_the_line_of_sight_beats_moving_along_it():
@@ -86,7 +86,7 @@ def test_moving_across_the_line_of_sight_beats_moving_along_it():
     particles = cloud(rng, np.array([[0.0, 100, 0, 0, 0, 0]]), 4000, np.array([0.1, 30, 0, 0.1, 0.1, 0]))
     weights = np.full((1, 4000), 1 / 4000)
     cands = np.array([[0.0, 20.0, 40.0], [20.0, 0.0, 40.0], [-20.0, 0.0, 40.0]])
-    traces = pseudo_traces(cands, particles, weights, SIGMA)[:, 0]
+    traces = bearing_traces(cands, particles, weights, SIGMA)[:, 0]
     prior = np.trace(np.cov(particles[0].T, bias=True))
     assert traces[1] < 0.2 * prior and traces[2] < 0.2 * prior
     assert traces[0] > 0.9 * prior
@@ -101,6 +101,6 @@ def test_gaussian_traces_by_hand():
     a, r, sigma = 25.0, 200.0, 0.02
     means = np.array([[300.0, 400.0, 0, 1, 2, 0]])
     cands = np.array([[300.0, 200.0, 40.0], [300.0 + r, 400.0, 40.0]])
-    got = gaussian_traces(cands, means, a * np.eye(6)[None], sigma)
+    got = gaussian_traces(cands, means, a * np.eye(6)[None], BearingModel(sigma))
     want = 6 * a - a**2 / r**2 / (a / r**2 + sigma**2)
     np.testing.assert_allclose(got[:, 0], [want, want], rtol=1e-12)

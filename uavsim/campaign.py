@@ -335,6 +335,10 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
         del data["filter"]["noise_scales"], data["filter"]["scale_switch"]
     if data["guidance"]["terminal"] == "soft":  # likewise
         del data["guidance"]["terminal"]
+    if data.get("sensor"):  # the sensor's world is the mission's, hashed once; no line of sight: as before
+        del data["sensor"]["world"]
+        if not data["sensor"]["line_of_sight"]:
+            del data["sensor"]["line_of_sight"]
     if data["world"]["prisms"] is None:  # a world of cuboids, as before prisms existed
         del data["world"]["prisms"]
     return hashlib.sha256(json.dumps(data, default=_plain, sort_keys=True).encode()).hexdigest()
@@ -969,10 +973,21 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "guidance_status": dict(sorted(statuses.items())),
         "events": sum(len(r.events) for r in results),
         "track_loss_events": track_loss_events([t.name for t in mission.targets], results),
+        "occluded_per_target": occluded_share(sensor, results),
         "truth_collisions": sum(r.collisions for r in results),
         "timing": {k: float(np.median(secs[:, i])) for i, k in enumerate(STAGES)},
         "wall_seconds": wall,
     }
+
+
+def occluded_share(sensor, results: list[TrialResult]) -> list[float] | None:
+    """``(M,)`` each target's share of (trial, step, sensor) lines of sight a building
+    blocked, from the trials' truths and observers; None without line of sight or sensors."""
+    if sensor is None or not sensor.line_of_sight or results[0].observers.shape[1] == 0:
+        return None
+    truth, obs = np.stack([r.truth for r in results]), np.stack([r.observers for r in results])
+    seen = sensor.visible(truth[..., :, None, :3], obs[..., None, :, :3])  # (trials, T, M, S)
+    return (~seen).mean(axis=(0, 1, 3)).tolist()
 
 
 def track_loss_events(names: list[str], results: list[TrialResult]) -> list[int]:

@@ -361,6 +361,9 @@ def _print_summary(s: dict) -> None:
     if any(s.get("track_loss_events", [])):
         declared = ", ".join(f"{n} {k}" for n, k in zip(s["targets"], s["track_loss_events"]) if k)
         print(f"  {'':<8}tracks declared lost by the filter and re-seeded from the bearings: {declared}")
+    if s.get("occluded_per_target") is not None:
+        hidden = " ".join(f"{n} {h:.0%}" for n, h in zip(s["targets"], s["occluded_per_target"]))
+        print(f"  {'':<8}line of sight blocked by a building (share of steps): {hidden}")
     for key, label in (("pos", "position"), ("state", "state")):
         n = s["nees"][key]
         print(f"  NEES {label} (dof {n['dof']}): {_verdict(n)}: mean {np.mean(n['mean']):.2f}, {n['level']:.0%} band "

@@ -3,7 +3,7 @@
 A mission (``missions/*.toml``) names a world (``worlds/*.toml``, path relative to the
 mission file) and holds targets, dynamics, sensor, UAV, guidance, filter and planner
 settings.  This module only reads and checks: every settings object is defined beside
-the code that uses it (``World``, ``Dynamics``, ``Sensor``, ``GuidanceConfig``,
+the code that uses it (``World``, ``Dynamics``, ``BearingModel``, ``GuidanceConfig``,
 ``FilterConfig``, ``UavConfig``, ``PlannerConfig``), each of its settings declared there
 once with its key, unit, default and range (:mod:`uavsim.declare`), which this reader
 follows; no domain module imports this one.  Overrides (``load_mission(path,
@@ -32,7 +32,7 @@ from .belief import FilterConfig
 from .declare import REQUIRED, SettingError, Spec, si_array, specs
 from .guidance.model import GuidanceConfig
 from .mission import Mission, MissionError
-from .sensing import Sensor
+from .sensing import BearingModel
 from .targets import TARGET_KEYS, Dynamics, Target
 from .uav import FixedSensorsConfig, LookaheadConfig, ManoeuvreConfig, PlannerConfig, UavConfig
 from .uav.fixed import FIXED_FRACTIONS, fixed_sensor_problem
@@ -461,7 +461,9 @@ def _mission(path: Path, data: dict) -> Mission:
     world = load_world(world_path, referrer=(path, "world"))
 
     dynamics = _section(top.table("dynamics", optional=True, empty=True), Dynamics)
-    sensor = _section(top.table("sensor", optional=True, empty=True), Sensor)
+    sensor = _section(top.table("sensor", optional=True, empty=True), BearingModel)
+    if sensor.line_of_sight:  # the obstacles that block it
+        sensor = replace(sensor, world=world)
     uav = _uav(top.table("uav", optional=True, empty=True), world)
     targets = _targets(top, world, dynamics)
     guidance = _section(top.table("guidance", optional=True, empty=True), GuidanceConfig)
@@ -582,7 +584,7 @@ def _target(t: _Table, world: World, dynamics: Dynamics) -> Target:
                   goal=goal_names.index(v["goal"]))
 
 
-def _filter(t: _Table, sensor: Sensor) -> FilterConfig:
+def _filter(t: _Table, sensor: BearingModel) -> FilterConfig:
     f = _section(t, FilterConfig)
     if f.kind != "particle" and sensor.clutter_rate > 0:
         t.fail("kind", f"{f.kind} has no clutter model: it needs sensor.clutter_rate = 0 "

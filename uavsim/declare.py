@@ -1,6 +1,6 @@
 """How a setting is declared: once, as dataclass field metadata, beside the code that uses it.
 
-A settings dataclass (``Sensor``, ``GuidanceConfig``, ...) declares each field it reads
+A settings dataclass (``BearingModel``, ``GuidanceConfig``, ...) declares each field it reads
 from a mission file with :func:`setting`: the key in the file, its unit, its default (in
 the file's unit), its range and a one-line doc.  The mission reader, the validator, the
 writer (:func:`uavsim.config.to_toml`), the world generator and the settings reference

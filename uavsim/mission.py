@@ -2,7 +2,7 @@
 
 :func:`uavsim.config.load_mission` makes a :class:`Mission` from a file; every setting in
 it is an object defined beside the code that uses it (``World``, ``Dynamics``,
-``Sensor``, ``GuidanceConfig``, ``FilterConfig``, ``UavConfig``, ``PlannerConfig``).
+``BearingModel``, ``GuidanceConfig``, ``FilterConfig``, ``UavConfig``, ``PlannerConfig``).
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ from .declare import SettingError, setting
 if TYPE_CHECKING:  # annotations only: the settings' modules import MissionError from here
     from .belief import FilterConfig
     from .guidance.model import GuidanceConfig
-    from .sensing import Sensor
+    from .sensing import BearingModel
     from .targets import Dynamics, Target
     from .uav import PlannerConfig, UavConfig
     from .world import World
@@ -60,7 +60,7 @@ class Mission:
     world: World
     dynamics: Dynamics
     targets: tuple[Target, ...]
-    sensor: Sensor
+    sensor: BearingModel
     uav: UavConfig
     guidance: GuidanceConfig
     filter: FilterConfig

@@ -10,6 +10,8 @@ Entities (M targets named as in the mission)::
     targets/<name>/{truth, truth_path, estimate, estimate_path, particles, covariance, plan}
     uav/{position, path, candidates}                     candidates coloured by summed trace
     bearings/{detections, false_alarms}                  rays from the sensor(s)
+    bearings/blocked                                     line of sight: thin grey segments from the sensor
+                                                         to each target a building hid this step
     metrics/{error, trace, nees}/<name>, metrics/error/RMSE    scalars
     metrics/error/PCRLB                                  planned truth: the PCRLB of the RMSE along this
                                                          trial's truth and path (conditional on them;
@@ -240,8 +242,10 @@ class Recorder:
             rec.log("uav/candidates", rr.Points3D(info.candidates[ok], colors=colors, radii=[1.5]))
 
     def _bearings(self, info: StepInfo) -> None:
-        rays = {"detections": [], "false_alarms": []}
+        rays = {"detections": [], "false_alarms": [], "blocked": []}
         for scan, obs in zip(info.scans, info.observers):
+            if scan.blocked is not None:  # the truth's hidden lines of sight, drawn to the target
+                rays["blocked"] += [np.array([obs, t]) for t in info.truth[scan.blocked, :3]]
             reach = RAY_PAST * np.maximum(np.linalg.norm(info.mean[:, :2] - obs[:2], axis=1), 50.0)  # (M,)
             length = np.broadcast_to(reach[:, None], scan.bearings.shape)
             kinds = (("detections", scan.valid & scan.from_target), ("false_alarms", scan.valid & ~scan.from_target))
@@ -249,9 +253,12 @@ class Recorder:
                 phi, r = scan.bearings[mask], length[mask]
                 ends = np.column_stack([obs[0] + r * np.sin(phi), obs[1] + r * np.cos(phi), np.zeros(len(phi))])
                 rays[kind] += [np.array([obs, e]) for e in ends]
-        colors = {"detections": [[40, 200, 60]], "false_alarms": [[240, 60, 60]]}
+        colors = {"detections": [[40, 200, 60]], "false_alarms": [[240, 60, 60]], "blocked": [[150, 150, 150]]}
         for kind, strips in rays.items():
-            self.rec.log(f"bearings/{kind}", rr.LineStrips3D(strips, colors=colors[kind], radii=[0.5]))
+            if kind == "blocked" and not any(s.blocked is not None for s in info.scans):
+                continue
+            self.rec.log(f"bearings/{kind}", rr.LineStrips3D(strips, colors=colors[kind],
+                                                             radii=[0.25 if kind == "blocked" else 0.5]))
 
     def close(self) -> None:
         with self._writing():

@@ -39,7 +39,7 @@ import numpy as np
 from .belief import make_belief
 from .guidance import Guidance, Plan
 from .mission import Mission
-from .sensing import Scan, observe
+from .sensing import Scan
 from .truth import Truth
 from .uav import make_policy
 from .world.routes import GoalField
@@ -147,7 +147,7 @@ class Simulation:
         sec["truth"] += time.perf_counter() - t4
         t5 = time.perf_counter()
         observers, sensor = self.policy.observers, self.policy.sensor
-        scans = [observe(self.rng_sensor, sensor, self.truth.state[:, :3], o) for o in observers]
+        scans = [sensor.draw(self.rng_sensor, self.truth.state[:, :3], o) for o in observers]
         events += self.belief.update(scans, observers, sensor)
         if scans and self.belief.lost.any():
             events += self._recover(scans, observers, sensor)

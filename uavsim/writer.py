@@ -107,14 +107,14 @@ def sections() -> list[tuple[str, list]]:
     """Every mission table and its declared settings, in file order."""
     from .belief import FilterConfig
     from .guidance.model import GuidanceConfig
-    from .sensing import Sensor
+    from .sensing import BearingModel
     from .targets import TARGET_KEYS, Dynamics
     from .uav import FixedSensorsConfig, LookaheadConfig, ManoeuvreConfig, PlannerConfig, UavConfig
 
     def of(cls):
         return [spec for _, spec in specs(cls)]
 
-    return [("(top level)", of(Mission)), ("[dynamics]", of(Dynamics)), ("[sensor]", of(Sensor)),
+    return [("(top level)", of(Mission)), ("[dynamics]", of(Dynamics)), ("[sensor]", of(BearingModel)),
             ("[uav]", of(UavConfig)), ("[guidance]", of(GuidanceConfig)), ("[filter]", of(FilterConfig)),
             ("[planner]", of(PlannerConfig)), ("[planner.manoeuvres]", of(ManoeuvreConfig)),
             ("[planner.fixed_sensors]", of(FixedSensorsConfig)), ("[planner.lookahead]", of(LookaheadConfig)),

@@ -27,10 +27,10 @@ from pathlib import Path
 
 import numpy as np
 
-from uavsim.belief.particle import ParticleFilter, log_likelihood, scan_loglik
+from uavsim.belief.particle import ParticleFilter
 from uavsim.campaign import trial_seeds
 from uavsim.config import load_mission
-from uavsim.sensing import Scan, Sensor, observe
+from uavsim.sensing import BearingModel, Scan, log_likelihood, observe, scan_loglik
 from uavsim.sim import Simulation
 
 HERE = Path(__file__).resolve().parent
@@ -77,7 +77,7 @@ def likelihood_reference(out: dict) -> None:
         p = f"lik/{name}/"
         out |= {p + "bearings": bearings, p + "valid": valid, p + "expected": expected,
                 p + "sensor": np.array([sigma, pd, lam]),
-                p + "loglik": log_likelihood(bearings, valid, expected, Sensor(sigma, pd, lam))}
+                p + "loglik": log_likelihood(bearings, valid, expected, BearingModel(sigma, pd, lam))}
 
 
 def filter_run() -> dict[str, np.ndarray]:
@@ -102,7 +102,7 @@ def filter_run() -> dict[str, np.ndarray]:
         if t == 3:  # target 1 missed under p_D = 1: no particle explains an empty set
             scan = Scan(scan.bearings[:, :1] * np.array([[1.0], [0.0]]), np.array([[True], [False]]),
                         np.array([[True], [False]]))
-            sensor = Sensor(m.sensor.sigma, 1.0, 0.0)
+            sensor = BearingModel(m.sensor.sigma, 1.0, 0.0)
         rows["degenerate"].append(pf.update(scan_loglik(scan, pf.particles, observer, sensor))[0])
         rows["ess"].append(pf.ess())
         rows["resampled"].append(pf.resample(rng, 0.5, roughening=0.2))

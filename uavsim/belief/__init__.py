@@ -21,7 +21,7 @@ import numpy as np
 
 from ..declare import SettingError, setting
 from ..estimators.plkf import FILTERS
-from ..sensing import Scan, Sensor
+from ..sensing import BearingModel, Scan
 from ..targets import Dynamics
 from .gaussian import GaussianBelief
 from .particle import ParticleBelief
@@ -87,15 +87,16 @@ class Belief(Protocol):
         """Eq. (9a) with each target's force ``controls (M, 3)``; ``split = (mask (M, N),
         other (M, 3))``: the masked particles take ``other`` (particle beliefs only)."""
 
-    def update(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor) -> list[str]:
+    def update(self, scans: list[Scan], observers: np.ndarray, sensor: BearingModel) -> list[str]:
         """Eq. (9b) with one scan per observer ``(S, 3)``; returns event messages
         (degenerate updates skipped, resampling).  No scans: nothing changes."""
 
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
         """Eq. (11): means and covariances (copies)."""
 
-    def traces(self, candidates: np.ndarray, sigma: float) -> np.ndarray:
-        """Eq. (12): ``(C, M)`` pseudo-posterior covariance traces for UAV positions ``(C, >=2)``."""
+    def traces(self, candidates: np.ndarray, sensor: BearingModel) -> np.ndarray:
+        """Eq. (12): ``(C, M)`` pseudo-posterior covariance traces for UAV positions ``(C, >=2)``
+        and the measurement model ``sensor``."""
 
     def samples(self) -> np.ndarray | None:
         """``(M, N, 6)`` particles to draw (a copy), or None for a Gaussian belief."""
@@ -104,7 +105,7 @@ class Belief(Protocol):
     def lost(self) -> np.ndarray:
         """``(M,)`` bool: tracks declared lost (particle beliefs with ``loss_nats > 0``)."""
 
-    def recover(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor, world, route_field,
+    def recover(self, scans: list[Scan], observers: np.ndarray, sensor: BearingModel, world, route_field,
                 share: float) -> list[str]:
         """Re-seed the :attr:`lost` tracks from the scans (:mod:`.recovery`); track-loss events."""
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..estimators.plkf import UPDATES
 from ..metrics import credible_level
-from ..sensing import Scan, Sensor
+from ..sensing import BearingModel, Scan
 from ..targets import Dynamics
 from .traces import gaussian_traces
 
@@ -41,7 +41,7 @@ class GaussianBelief:
         """``split`` (halves moving by different plans) is for particle beliefs only."""
         self.mean, self.cov = dynamics.predict(self.mean, self.cov, controls)
 
-    def update(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor) -> list[str]:
+    def update(self, scans: list[Scan], observers: np.ndarray, sensor: BearingModel) -> list[str]:
         """Each sensor's clutter-free scan in turn."""
         events = []
         for scan, observer in zip(scans, observers):
@@ -66,8 +66,8 @@ class GaussianBelief:
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
         return self.mean.copy(), self.cov.copy()
 
-    def traces(self, candidates: np.ndarray, sigma: float) -> np.ndarray:
-        return gaussian_traces(candidates, self.mean, self.cov, sigma)
+    def traces(self, candidates: np.ndarray, sensor: BearingModel) -> np.ndarray:
+        return gaussian_traces(candidates, self.mean, self.cov, sensor)
 
     def samples(self) -> None:
         return None

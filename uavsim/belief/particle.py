@@ -31,155 +31,14 @@ A degenerate update (every particle has zero likelihood, e.g. a missed detection
 from __future__ import annotations
 
 import functools
-import math
 
 import numpy as np
 
 from ..metrics import credible_level
-from ..sensing import Scan, Sensor, wrap_angle
+from ..sensing import EXP_FLOOR, BearingModel, Scan
 from ..targets import Dynamics
 from . import recovery
 from .traces import pseudo_traces
-
-LOG_2PI = np.log(2.0 * np.pi)
-EXP_FLOOR = -700.0  # exp(-700) = 1e-304: nothing next to a sum >= 1
-SHIFT_GAP = 600.0  # a sum >= e^-600 leaves e^-700 at 1e-43 of it
-
-
-def log_likelihood(bearings: np.ndarray, valid: np.ndarray, expected: np.ndarray, sensor: Sensor) -> np.ndarray:
-    """``log g(Phi | x)`` of Eq. (10), closed form for uniform clutter (module docstring).
-
-    Parameters
-    ----------
-    bearings, valid : (M, K) one scan's padded measurement sets.
-    expected : (M, N) noise-free bearings ``l(x, s)`` of the particles (any angle; wrapped here).
-
-    Returns
-    -------
-    (M, N) log-likelihoods (``-inf`` where a particle cannot explain the set).
-
-    References
-    ----------
-    [Papaioannou2023] Eq. (10).
-    """
-    return _log_likelihood(wrap_angle(bearings), valid, wrap_angle(expected), sensor)
-
-
-def _log_likelihood(bearings: np.ndarray, valid: np.ndarray, expected: np.ndarray, sensor: Sensor) -> np.ndarray:
-    """:func:`log_likelihood` for bearings and ``expected`` already in ``[-pi, pi]``.
-
-    Each target's set has ``1 + n`` association hypotheses: "all clutter", with log
-    weight ``log_miss`` (:func:`_hypothesis_logs`), and "column k is the target", with
-    ``log_det - log(sigma sqrt(2 pi)) - r_k^2 / (2 sigma^2)``.  Their log-sum-exp is taken
-    with the hypotheses on a leading axis ``(K, M, N)`` (a reduction over a short last axis
-    is several times slower), in one of two ways:
-
-    * :func:`_shared_shift` when ``p_D < 1`` and ``Lambda > 0`` and the detection and
-      clutter weights are within ``e^SHIFT_GAP`` of each other (the paper's sensors): one
-      shift for every particle;
-    * :func:`_particle_shift` otherwise (``p_D = 1`` or no clutter, where a particle's
-      only finite hypotheses may all be tiny): each particle shifted by its own largest.
-    """
-    lam, pd, sig = sensor.clutter_rate, sensor.p_detect, sensor.sigma
-    n = np.count_nonzero(valid, axis=1)  # (M,) set sizes
-    terms = _residual_exponents(bearings, expected, sig)
-    if 0 < pd < 1 and lam > 0:
-        # log weight of "column k is the target" over "all clutter", the same for every n >= 1
-        log_clutter = math.log(lam) - LOG_2PI
-        ratio = math.log(pd) - math.log1p(-pd) - log_clutter - math.log(sig) - 0.5 * LOG_2PI
-        if abs(ratio) < SHIFT_GAP:
-            out = _shared_shift(terms, valid, ratio)
-            # + log_miss = log (1 - p_D) (L / 2pi)^n, + ratio where n > 0, - Lambda
-            base = math.log1p(-pd) - lam
-            out += np.where(n > 0, n * log_clutter + (ratio + base), base)[:, None]
-            return out
-    log_miss, log_det = _hypothesis_logs(n, lam, pd)  # (M,) each
-    const = np.where(valid.T, log_det - math.log(sig) - 0.5 * LOG_2PI, -np.inf)  # (K, M)
-    return _particle_shift(terms, const, log_miss) - lam
-
-
-def _residual_exponents(bearings: np.ndarray, expected: np.ndarray, sig: float) -> np.ndarray:
-    """``-r^2 / (2 sigma^2)`` (K, M, N) for the wrapped residuals of ``bearings (M, K)``
-    and ``expected (M, N)``, both in ``[-pi, pi]``: then ``d = l - phi`` lies in
-    ``[-2 pi, 2 pi]`` and the wrapped residual has ``|r| = pi - |pi - |d||`` (no ``mod``)."""
-    terms = np.subtract(expected, bearings.T[:, :, None])  # (K, M, N) d = l - phi
-    np.abs(terms, out=terms)
-    np.subtract(np.pi, terms, out=terms)
-    np.abs(terms, out=terms)
-    np.subtract(np.pi, terms, out=terms)  # |r|
-    np.square(terms, out=terms)
-    terms *= -0.5 / sig**2
-    return terms
-
-
-def _shared_shift(terms: np.ndarray, valid: np.ndarray, ratio: float) -> np.ndarray:
-    """``log(e^-ratio [n > 0] + sum_k exp(terms_k))`` (M, N) from ``terms (K, M, N)``
-    (overwritten), for ``|ratio| < SHIFT_GAP``; a target with ``n = 0`` gets 0.
-
-    Eq. (10) divided by its "all clutter" weight is ``1 + sum_k e^(ratio - r_k^2 /
-    2 sigma^2)`` = ``e^ratio (e^-ratio + sum_k ...)``: the first term bounds the sum below
-    by ``e^-SHIFT_GAP``, so exponents under ``EXP_FLOOR`` are raised to it (an ``e^-700``
-    and a 0 then give the same double, and ``exp`` of an underflowing argument runs
-    several times slower) and nothing overflows."""
-    padded = valid.shape[1] == 0 or not valid.all()
-    if padded:
-        terms[~valid.T] = -np.inf
-    np.maximum(terms, EXP_FLOOR, out=terms)
-    total = np.exp(terms, out=terms).sum(axis=0)
-    total += math.exp(-ratio)
-    out = np.log(total, out=total)
-    if padded:
-        out[~valid.any(axis=1)] = 0.0
-    return out
-
-
-def _particle_shift(terms: np.ndarray, const: np.ndarray, log_miss: np.ndarray) -> np.ndarray:
-    """``log(e^log_miss + sum_k e^(const_k + terms_k))`` (M, N), each particle shifted by
-    its largest hypothesis, so its sum is at least 1 (``-inf`` where no hypothesis can
-    explain the set).  ``terms (K, M, N)`` is overwritten; ``const (K, M)``, ``-inf`` for
-    padding; ``log_miss (M,)``."""
-    dead = np.isneginf(log_miss) & np.isneginf(const).all(axis=0)  # (M,) nothing explains the set
-    terms += const[:, :, None]
-    top = np.maximum(terms.max(axis=0, initial=-np.inf), log_miss[:, None])  # (M, N)
-    top[dead] = 0.0
-    terms -= top
-    np.maximum(terms, EXP_FLOOR, out=terms)
-    total = np.exp(terms, out=terms).sum(axis=0)
-    total += np.exp(np.maximum(log_miss[:, None] - top, EXP_FLOOR))
-    out = np.log(total, out=total)
-    out += top
-    out[dead] = -np.inf
-    return out
-
-
-def _hypothesis_logs(n: np.ndarray, lam: float, pd: float) -> tuple[np.ndarray, np.ndarray]:
-    """Eq. (10) with the factorials cancelled, for set sizes ``n (M,)``: the log weights of
-    "all n are clutter", ``log (1 - p_D) (L / 2pi)^n``, and of "one given measurement is
-    the target", ``log p_D (L / 2pi)^(n-1)`` (``-inf`` for ``n = 0``)."""
-    log_pd = math.log(pd) if pd > 0 else -np.inf
-    log_miss_p = math.log1p(-pd) if pd < 1 else -np.inf
-
-    def clutter(k):  # log (L / 2pi)^k, with (0 / 2pi)^0 = 1
-        return k * (math.log(lam) - LOG_2PI) if lam > 0 else np.where(k == 0, 0.0, -np.inf)
-
-    log_miss = log_miss_p + clutter(n)
-    log_det = np.where(n >= 1, log_pd + clutter(np.maximum(n - 1, 0)), -np.inf)
-    return log_miss, log_det
-
-
-def uniform_loglik(valid: np.ndarray, sensor: Sensor) -> np.ndarray:
-    """``log g(Phi)`` of Eq. (10) for a target whose bearing is uniform on the circle:
-    ``(M,)`` from one scan's ``valid (M, K)``.  Averaging ``N(phi_i; l, sigma^2)`` over ``l``
-    gives ``1 / 2pi`` (sigma << pi), so with the module docstring's cancellations
-
-        g_u(Phi) = e^-L [(1 - p_D) (L / 2pi)^n + n p_D (L / 2pi)^(n-1) / 2pi].
-
-    The yardstick of a lost track (:meth:`ParticleBelief.update`): a cloud that explains
-    the scan worse than a target anywhere is not where the target is."""
-    n = np.count_nonzero(valid, axis=1)
-    log_miss, log_det = _hypothesis_logs(n, sensor.clutter_rate, sensor.p_detect)
-    with np.errstate(divide="ignore"):
-        return np.logaddexp(log_miss, log_det + np.log(n) - LOG_2PI) - sensor.clutter_rate
 
 
 class ParticleFilter:
@@ -403,22 +262,13 @@ def _scratch(work: dict | None, name: str, shape: tuple[int, ...]) -> np.ndarray
     return buf
 
 
-def scan_loglik(scan: Scan, particles: np.ndarray, observer: np.ndarray, sensor: Sensor) -> np.ndarray:
-    """Eq. (10) for every particle ``(M, N, 6)`` and one scan taken at ``observer (3,)``.
-
-    The particles' bearings are :func:`uavsim.sensing.bearing` without its wrap: ``atan2``
-    already lies in ``[-pi, pi]``, which is all the likelihood needs."""
-    expected = np.arctan2(particles[..., 0] - observer[0], particles[..., 1] - observer[1])
-    return _log_likelihood(wrap_angle(scan.bearings), scan.valid, expected, sensor)
-
-
 class ParticleBelief:
     """The :class:`uavsim.belief.Belief` of [Papaioannou2023, Sec. V-A]: M particle filters with the
     clutter likelihood, systematic resampling (and roughening) when the ESS is low, and the
     pseudo-posterior traces of Eq. (12) for the UAV's decision.
 
     Track loss (``loss_nats > 0``): a CUSUM [Page1954] per target of the log likelihood ratio of
-    "the target is anywhere" (:func:`uniform_loglik`) to "the target is in the predicted
+    "the target is anywhere" (:func:`uavsim.sensing.uniform_loglik`) to "the target is in the predicted
     cloud" (the update's evidence), ``S <- max(0, S + log g_u - log g_cloud)``, summed over
     the sensors of a step.  A tracked target's detection takes about 5 nats off (paper
     sensor: sigma 1 deg, p_D 0.95, Lambda 1) and a missed one adds at most ``log(1 + n p_D /
@@ -459,15 +309,15 @@ class ParticleBelief:
             covs.append(cov)
         return mask, mass, np.stack(means, axis=1), np.stack(covs, axis=1)
 
-    def update(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor) -> list[str]:
+    def update(self, scans: list[Scan], observers: np.ndarray, sensor: BearingModel) -> list[str]:
         if not scans:  # no sensor: the prediction is the posterior
             return []
-        loglik = sum(scan_loglik(s, self.pf.particles, o, sensor) for s, o in zip(scans, observers))
+        loglik = sum(sensor.log_likelihood(s, self.pf.particles, o) for s, o in zip(scans, observers))
         bad, evidence = self.pf.update(loglik)
         events = [f"{self.names[j]}: degenerate update skipped (no particle explains the bearings)"
                   for j in np.flatnonzero(bad)]
         if self.loss_nats > 0:  # a degenerate update is as strong a sign of loss as the threshold
-            against = sum(uniform_loglik(s.valid, sensor) for s in scans) - evidence
+            against = sum(sensor.uniform_loglik(s.valid) for s in scans) - evidence
             self.cusum = np.maximum(0.0, self.cusum + np.minimum(against, self.loss_nats + 1.0))
         resampled = self.pf.resample(self.rng, self.threshold, self.roughening)
         if resampled.any():
@@ -477,7 +327,7 @@ class ParticleBelief:
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
         return self.pf.moments()
 
-    def recover(self, scans: list[Scan], observers: np.ndarray, sensor: Sensor, world, route_field,
+    def recover(self, scans: list[Scan], observers: np.ndarray, sensor: BearingModel, world, route_field,
                 share: float) -> list[str]:
         """Re-seed the targets declared :attr:`lost` from this step's ``scans`` taken at
         ``observers (S, 3)`` (:func:`.recovery.draw`; ``route_field(j)``: the route field to
@@ -512,8 +362,8 @@ class ParticleBelief:
         self.pf.logw = logw
         self.cusum[rows] = 0.0
 
-    def traces(self, candidates: np.ndarray, sigma: float) -> np.ndarray:
-        return pseudo_traces(candidates, self.pf.particles, self.pf.weights, sigma)
+    def traces(self, candidates: np.ndarray, sensor: BearingModel) -> np.ndarray:
+        return pseudo_traces(candidates, self.pf.particles, self.pf.weights, sensor)
 
     def samples(self) -> np.ndarray:
         return self.pf.particles.copy()

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..sensing import Scan, Sensor
+from ..sensing import BearingModel, Scan
 from ..world.model import World
 
 if TYPE_CHECKING:  # the routes bring scipy and shapely, which reading a mission does not need
@@ -38,7 +38,7 @@ ROUTE_STEP_M = 1.0  # central-difference step of the route length's gradient
 REDRAWS = 8  # rounds of redrawing a range that falls in an obstacle
 
 
-def draw(rng: np.random.Generator, cloud: np.ndarray, scans: list[Scan], observers: np.ndarray, sensor: Sensor,
+def draw(rng: np.random.Generator, cloud: np.ndarray, scans: list[Scan], observers: np.ndarray, sensor: BearingModel,
          world: World, fields: list[GoalField | None], rows: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """``(fresh (L, n, 6), ok (L,))``: n draws for each lost target ``rows (L,)`` from its
     old particles ``cloud (L, N, 6)`` and the step's ``scans`` taken at ``observers (S, 3)``

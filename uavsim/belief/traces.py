@@ -20,18 +20,123 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..bounds.pcrlb import bearing_gradients
+from ..sensing import BearingModel, MeasurementModel
 
 BLOCK_ELEMENTS = 1 << 16  # candidate x target x particle entries per block: 256 kB float32 arrays stay in L2
+DECISION_PARTICLES = 1000  # per target: the systematic subsample of :func:`model_traces`
+SIGHT_POINTS = 64  # per target: the particles whose line of sight to every candidate is tested
 
 
-def pseudo_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray, sigma: float) -> np.ndarray:
+def pseudo_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray,
+                  sensor: MeasurementModel) -> np.ndarray:
     """``tr(Sigma~_j(s))`` for every candidate and target, Eq. (12) then Eq. (11).
+
+    A bearing sensor takes the fast path below (:func:`bearing_traces`), under line of
+    sight with each particle's detection probability from each candidate
+    (:func:`sight_detection`); any other measurement model :func:`model_traces`.
 
     Parameters
     ----------
     candidates : (C, >=2) UAV positions; particles : (M, N, 6) predicted particles;
-    weights : (M, N) their weights (rows sum to 1); sigma : bearing noise std (rad).
+    weights : (M, N) their weights (rows sum to 1); sensor : the measurement model.
+
+    Returns
+    -------
+    (C, M) float64 traces.
+    """
+    if isinstance(sensor, BearingModel):
+        detect = sight_detection(candidates, particles, weights, sensor) if sensor.line_of_sight else None
+        return bearing_traces(candidates, particles, weights, sensor.sigma, detect)
+    return model_traces(candidates, particles, weights, sensor)
+
+
+def sight_detection(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray,
+                    sensor: BearingModel) -> np.ndarray:
+    """``(M, C, N)`` float32 detection probability of every particle seen from every
+    candidate under line of sight: the segments are tested for :data:`SIGHT_POINTS`
+    particles per target (a deterministic systematic subsample), and every particle takes
+    the verdict of its nearest tested one on the ground.  Exact for the tested ones; a
+    particle within a cloud's spacing of a shadow's edge may take the wrong side.  It
+    keeps the segment tests at ``C M SIGHT_POINTS`` (vectorised over candidates and
+    points; one call per target, see :meth:`~uavsim.sensing.BearingModel.visible`)."""
+    reps, _ = _thinned(particles, weights, SIGHT_POINTS)  # (M, K, 6)
+    seen = sensor.visible(reps[:, None, :, :3], np.asarray(candidates, float)[None, :, None, :3])  # (M, C, K)
+    gap = particles[:, :, None, :2] - reps[:, None, :, :2]  # (M, N, K, 2)
+    nearest = np.argmin(np.einsum("mnki,mnki->mnk", gap, gap), axis=2)  # (M, N)
+    out = np.take_along_axis(seen, np.broadcast_to(nearest[:, None, :], seen.shape[:2] + nearest.shape[1:]), axis=2)
+    return out.astype(np.float32) * np.float32(sensor.p_detect)
+
+
+def model_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray,
+                 sensor: MeasurementModel) -> np.ndarray:
+    """Eq. (12)-(11) for any measurement model, and with the detection probability at each
+    particle under line of sight.
+
+    Eq. (12) re-weights particle i by ``N(h(mu, s); h(x_i, s), R)``
+    (:meth:`~uavsim.sensing.MeasurementModel.pseudo_loglik`).  Under line of sight the
+    scan holds the target's measurement only with the probability ``p_i(s)`` of
+    :meth:`~uavsim.sensing.BearingModel.detection` (0 behind a building), so the expected
+    trace mixes both outcomes: ``P_d tr(Sigma_det) + (1 - P_d) tr(Sigma_miss)``, with
+    ``P_d = sum w_i p_i``, ``Sigma_det`` the moments of the weights ``w_i p_i N(...)`` and
+    ``Sigma_miss`` those of ``w_i (1 - p_i)`` (a miss tells the filter the target is
+    probably hidden).  Without line of sight the detection is taken for granted, as in
+    the paper.  Clouds of more than :data:`DECISION_PARTICLES` are first thinned to that
+    many by deterministic systematic resampling (equal weights), which bounds the
+    segment tests to ``C M DECISION_PARTICLES``.
+
+    Returns (C, M) float64 traces.
+    """
+    particles, weights = _thinned(particles, weights, DECISION_PARTICLES)
+    mean = np.einsum("mn,mni->mi", weights, particles)  # (M, 6)
+    centred = particles - mean[:, None, :]
+    loglik = sensor.pseudo_loglik(candidates, particles, mean)  # (M, C, N)
+    lik = np.exp(loglik - loglik.max(axis=2, keepdims=True))
+    det = weights[:, None, :] * lik
+    if not sensor.line_of_sight:
+        return _weighted_trace(det, centred).T
+    p = sensor.detection(particles[:, None, :, :3], np.asarray(candidates, float)[None, :, None, :3])  # (M, C, N)
+    det = det * p
+    miss = weights[:, None, :] * (1.0 - p)
+    p_det = np.einsum("mn,mcn->mc", weights, p)
+    return (p_det * _weighted_trace(det, centred) + (1.0 - p_det) * _weighted_trace(miss, centred)).T
+
+
+def _weighted_trace(w: np.ndarray, centred: np.ndarray) -> np.ndarray:
+    """``(M, C)`` trace of the covariance of ``centred (M, N, d)`` under weights ``w (M, C, N)``
+    (normalised here; 0 where a row's weights are all 0)."""
+    total = w.sum(axis=2)
+    safe = np.where(total > 0, total, 1.0)
+    first = (w @ centred) / safe[..., None]  # (M, C, d)
+    second = (w @ (centred**2).sum(-1)[..., None])[..., 0] / safe
+    return np.where(total > 0, second - (first**2).sum(-1), 0.0)
+
+
+def _thinned(particles: np.ndarray, weights: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """At most ``k`` equally weighted particles per target, by systematic resampling with
+    the fixed offset 1/2 (deterministic: the decision draws no random numbers)."""
+    m, n, _ = particles.shape
+    if n <= k:
+        return particles, weights
+    cum = np.cumsum(weights, axis=1)
+    cum /= cum[:, -1:]
+    rows = np.arange(m)[:, None]  # each row offset by its index: one search for all rows
+    at = np.searchsorted((cum + rows).ravel(), (((np.arange(k) + 0.5) / k)[None, :] + rows).ravel(), side="right")
+    idx = np.minimum(at.reshape(m, k) - rows * n, n - 1)  # (M, k)
+    return np.take_along_axis(particles, idx[..., None], axis=1), np.full((m, k), 1.0 / k)
+
+
+def bearing_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray, sigma: float,
+                   detect: np.ndarray | None = None) -> np.ndarray:
+    """:func:`pseudo_traces` for a bearing sensor.
+
+    Parameters
+    ----------
+    candidates : (C, >=2) UAV positions; particles : (M, N, 6) predicted particles;
+    weights : (M, N) their weights (rows sum to 1); sigma : bearing noise std (rad);
+    detect : (M, C, N) each particle's detection probability from each candidate (line
+    of sight), or None: the detection is taken for granted, as in Eq. (12).  With it the
+    expected trace mixes both outcomes, ``P_d tr(Sigma_det) + (1 - P_d) tr(Sigma_miss)``
+    (:func:`model_traces`).
 
     Returns
     -------
@@ -57,15 +162,27 @@ def pseudo_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.nda
     sums, lows = [], []
     for lo in range(0, n, block):
         part = slice(lo, lo + block)
-        s_b, low = _block_sums(a_cross @ rows[:, :2, part], a_dot @ rows[:, :3, part], feats[:, :, part], sigma)
+        s_b, low = _block_sums(a_cross @ rows[:, :2, part], a_dot @ rows[:, :3, part], feats[:, :, part], sigma,
+                               None if detect is None else detect[:, :, part])
         sums.append(s_b)
         lows.append(low)
     lows = np.array(lows, dtype=np.float64)  # (B, M, C) least squared residual per block
     scale = np.exp(-0.5 / sigma**2 * (lows - lows.min(axis=0)))  # each block relative to the best
     total = np.einsum("bmc,bmck->mck", scale, np.array(sums, dtype=np.float64))  # (M, C, 8) in rows' order
+    if detect is None:
+        return _trace_of_sums(total).T
+    miss = ((1.0 - detect) @ feats.transpose(0, 2, 1)).astype(np.float64)  # (M, C, 8): sums under w_i (1 - p_i)
+    p_miss = miss[..., 2]  # 1 - P_d
+    return ((1.0 - p_miss) * _trace_of_sums(total) + p_miss * _trace_of_sums(miss)).T
+
+
+def _trace_of_sums(total: np.ndarray) -> np.ndarray:
+    """``(M, C)`` covariance trace from weighted sums ``(M, C, 8)`` in the rows' order
+    (:func:`_particle_rows`); 0 where the weights sum to 0."""
     w0, w2 = total[..., 2], total[..., 7]
     w1 = total[..., [0, 1, 3, 4, 5, 6]]
-    return (w2 / w0 - (w1**2).sum(-1) / w0**2).T
+    safe = np.where(w0 > 0, w0, 1.0)
+    return np.where(w0 > 0, w2 / safe - (w1**2).sum(-1) / safe**2, 0.0)
 
 
 def _particle_rows(particles: np.ndarray, mean: np.ndarray) -> np.ndarray:
@@ -82,28 +199,40 @@ def _particle_rows(particles: np.ndarray, mean: np.ndarray) -> np.ndarray:
     return rows
 
 
-def _block_sums(cross: np.ndarray, dot: np.ndarray, feats: np.ndarray, sigma: float) -> tuple[np.ndarray, np.ndarray]:
+def _block_sums(cross: np.ndarray, dot: np.ndarray, feats: np.ndarray, sigma: float,
+                detect: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One block of particles: ``cross, dot (M, C, B)``, weighted features ``(M, 8, B)``.
-    Returns the sums ``(M, C, 8)`` weighted by ``exp(-(r^2 - r_min^2) / 2 sigma^2)`` and
-    ``r_min^2 (M, C)``, the block's least squared residual."""
+    Returns the sums ``(M, C, 8)`` weighted by ``exp(-(r^2 - r_min^2) / 2 sigma^2)`` (times
+    ``detect (M, C, B)`` if given) and ``r_min^2 (M, C)``, the block's least squared residual."""
     resid = np.arctan2(cross, dot, out=cross)  # (M, C, B) signed angle: l(x_i, s) - l(mu, s) up to sign
     expo = np.square(resid, out=resid)
     low = expo.min(axis=2)
     expo -= low[..., None]  # the best-aligned particle gets exp(0): no underflow
     expo *= np.float32(-0.5 / sigma**2)
-    return np.exp(expo, out=expo) @ feats.transpose(0, 2, 1), low
+    lik = np.exp(expo, out=expo)
+    if detect is not None:
+        lik *= detect
+    return lik @ feats.transpose(0, 2, 1), low
 
 
-def gaussian_traces(candidates: np.ndarray, means: np.ndarray, covs: np.ndarray, sigma: float,
-                    min_range: float = 0.0) -> np.ndarray:
-    """Eq. (12)-(13) for Gaussian beliefs (the pseudo-linear filters): the trace after a
-    noise-free bearing linearised at the mean, ``tr(P) - |P h|^2 / (h P h^T + sigma^2)``,
-    ``h = (dy, -dx, 0, ...) / r^2`` the gradient of ``atan2(dx, dy)``
-    (:func:`uavsim.bounds.pcrlb.bearing_gradients`, ``r`` floored at ``min_range``).
+def gaussian_traces(candidates: np.ndarray, means: np.ndarray, covs: np.ndarray, sensor: MeasurementModel,
+                    min_range: float = 0.0, info_factor: float = 1.0, detect: np.ndarray | None = None) -> np.ndarray:
+    """Eq. (12)-(13) for Gaussian beliefs (the pseudo-linear filters, the lookahead): the
+    trace after a noise-free measurement linearised at the mean,
+    ``tr(P) - tr(P H^T (H P H^T + R / info_factor)^-1 H P)``, ``H`` the model's Jacobian
+    (for bearings ``(dy, -dx) / r^2``, ``r`` floored at ``min_range``), and with a
+    detection probability ``detect (..., C, M)`` the expected trace
+    ``tr(P) - detect tr(...)`` (a miss leaves the prediction).
 
     candidates (..., C, >=2); means (M, >=2); covs (..., M, n, n), x and y first (leading
     dimensions broadcast).  Returns (..., C, M)."""
-    h2 = np.swapaxes(bearing_gradients(means, candidates, min_range), -2, -3)  # (..., C, M, 2)
-    ph = np.einsum("...mij,...cmj->...cmi", covs[..., :2], h2)  # (..., C, M, n)
-    s = np.einsum("...cmi,...cmi->...cm", h2, ph[..., :2]) + sigma**2
-    return np.trace(covs, axis1=-2, axis2=-1)[..., None, :] - np.sum(ph**2, -1) / s
+    h = np.swapaxes(sensor.jacobian(means, candidates, min_range), -3, -4)  # (..., C, M, d, 2)
+    ph = np.einsum("...mij,...cmdj->...cmid", covs[..., :2], h)  # (..., C, M, n, d): P H^T
+    s = np.einsum("...cmdi,...cmie->...cmde", h, ph[..., :2, :]) + sensor.noise_cov / info_factor
+    if s.shape[-1] == 1:  # one value per measurement (bearings): a division
+        gain = np.sum(ph[..., 0] ** 2, -1) / s[..., 0, 0]
+    else:
+        gain = np.einsum("...id,...de,...ie->...", ph, np.linalg.inv(s), ph)
+    if detect is not None:
+        gain = gain * detect
+    return np.trace(covs, axis1=-2, axis2=-1)[..., None, :] - gain

@@ -66,7 +66,7 @@ trapezoid rule on uniform grids in s and u; for these analytic, fast-decaying in
 it converges geometrically (Trefethen & Weideman, SIAM Review 56(3), 2014).  Measured:
 the default grids agree with 2x and 4x finer, wider ones to about 1e-13 (tests), and with a
 Monte Carlo through :func:`uavsim.sensing.observe` and
-:func:`uavsim.belief.particle.log_likelihood` within its standard error.  The bearing noise is
+:func:`uavsim.sensing.log_likelihood` within its standard error.  The bearing noise is
 taken as Gaussian on the line, so sigma is limited to ``pi / 8``, where the wrapped tail
 ``2 Phi(-pi / sigma)`` is below 1e-15.
 
@@ -121,7 +121,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from ..sensing import SIGMA_MAX_DEG, Sensor
+from ..sensing import SIGMA_MAX_DEG, MeasurementModel
 from ..targets import HORIZONTAL, Dynamics
 
 MAX_SIGMA = np.radians(SIGMA_MAX_DEG)  # pi / 8: the wrapped tail 2 Phi(-pi / sigma) of the noise is < 1e-15
@@ -201,68 +201,6 @@ def information_reduction_factor(sigma: float, p_detect: float, clutter_rate: fl
     if clutter_rate == 0.0 or p_detect == 0.0:
         return float(p_detect)
     return _q2_quadrature(clutter_rate * sigma / (2.0 * np.pi), p_detect, np.pi / sigma)
-
-
-# --------------------------------------------------------------------------- measurement information
-def bearing_gradients(targets: np.ndarray, observers: np.ndarray, min_range: float = 0.0) -> np.ndarray:
-    """``d l / d(x, y)`` of the [Papaioannou2023] bearing ``atan2(dx, dy)``: ``(dy, -dx) / r^2``.
-
-    Parameters
-    ----------
-    targets : (..., M, >=2) true positions; observers : (..., S, >=2) sensor positions
-    (the leading dimensions broadcast); min_range : r floored there (m); 0: no floor.
-
-    Returns
-    -------
-    (..., M, S, 2).
-
-    Raises
-    ------
-    ValueError when a sensor is at a target's horizontal position (bearing undefined).
-
-    References
-    ----------
-    [Papaioannou2023] Eq. (4).
-    """
-    d = targets[..., :, None, :2] - observers[..., None, :, :2]  # (..., M, S, 2)
-    r2 = np.maximum((d**2).sum(-1, keepdims=True), min_range**2)
-    if np.any(r2 == 0.0):
-        raise ValueError("a sensor is exactly above a target (zero horizontal range): the bearing and its "
-                         "information are undefined there")
-    return np.stack([d[..., 1], -d[..., 0]], -1) / r2
-
-
-def scan_information(targets: np.ndarray, observers: np.ndarray, sigma: float, q2: float,
-                     min_range: float = 0.0) -> np.ndarray:
-    """``J_Z = q2 / sigma^2 sum_s h_s^T h_s`` on (x, y) of one scan by every sensor.
-
-    Parameters
-    ----------
-    targets : (..., M, >=2) true positions; observers : (..., S, >=2) (leading dimensions
-    broadcast); sigma : bearing noise std (rad); q2 : the IRF of the sensor; min_range :
-    see :func:`bearing_gradients`.
-
-    Returns
-    -------
-    (..., M, 2, 2).
-    """
-    h = bearing_gradients(targets, observers, min_range)  # (..., M, S, 2)
-    return (q2 / sigma**2) * np.einsum("...msi,...msj->...mij", h, h)
-
-
-def expected_information(targets: np.ndarray, observers: np.ndarray, sigma: float, q2: float) -> np.ndarray:
-    """``E[J_Z]`` on (x, y): ``q2 / sigma^2 sum_s h_s^T h_s`` averaged over trials.
-
-    Parameters
-    ----------
-    targets : (trials, T, M, >=2) true positions; observers : (trials, T, S, >=2);
-    sigma : bearing noise std (rad); q2 : the IRF of the sensor.
-
-    Returns
-    -------
-    (T, M, 2, 2): summed over the S sensors (independent scans), averaged over trials.
-    """
-    return scan_information(targets, observers, sigma, q2).mean(axis=0)
 
 
 # --------------------------------------------------------------------------- the recursion
@@ -379,7 +317,7 @@ def _check_model(cov0: np.ndarray, a: np.ndarray, q: np.ndarray, m: int) -> np.n
 
 
 def pcrlb_for_trials(truth: np.ndarray, observers: np.ndarray, dynamics: Dynamics, cov0: np.ndarray,
-                     sensor: Sensor) -> Bound:
+                     sensor: MeasurementModel) -> Bound:
     """The closed-loop PCRLB of recorded trials, per step and target.
 
     Parameters
@@ -406,13 +344,12 @@ def pcrlb_for_trials(truth: np.ndarray, observers: np.ndarray, dynamics: Dynamic
     if truth.shape[-1] != a.shape[0]:
         raise ValueError(f"truth has {truth.shape[-1]} state components, the dynamics {a.shape[0]}")
     cov0 = _check_model(cov0, a, q, truth.shape[2])
-    q2 = information_reduction_factor(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
-    info = expected_information(truth, observers, sensor.sigma, q2)
-    return Bound(cov=pcrlb(cov0, a, q, info), q2=q2, trials=truth.shape[0])
+    info = sensor.information(truth, observers, detect=_detect(sensor, truth, observers)).mean(axis=0)
+    return Bound(cov=pcrlb(cov0, a, q, info), q2=sensor.information_factor(), trials=truth.shape[0])
 
 
 def pcrlb_planned(sensitivity: np.ndarray, truth: np.ndarray, observers: np.ndarray, cov0: np.ndarray,
-                  sensor: Sensor) -> Bound:
+                  sensor: MeasurementModel) -> Bound:
     """The bound for a truth that is a deterministic function of its start (module
     docstring, "Which truth it bounds").
 
@@ -426,7 +363,7 @@ def pcrlb_planned(sensitivity: np.ndarray, truth: np.ndarray, observers: np.ndar
         The sensor positions.
     cov0 : (M, 6, 6)
         The priors ``Sigma_0`` (their ``[x, y, vx, vy]`` block is used).
-    sensor : Sensor
+    sensor : MeasurementModel
         The observers' sensor.
 
     Returns
@@ -446,8 +383,7 @@ def pcrlb_planned(sensitivity: np.ndarray, truth: np.ndarray, observers: np.ndar
     if not np.all(np.isfinite(g)):
         raise ValueError("sensitivity has non-finite entries")
     cov0 = np.asarray(cov0, float)[:, HORIZONTAL][:, :, HORIZONTAL]  # (M, 4, 4)
-    q2 = information_reduction_factor(sensor.sigma, sensor.p_detect, sensor.clutter_rate)
-    w = scan_information(truth, observers, sensor.sigma, q2)  # (trials, T, M, 2, 2)
+    w = sensor.information(truth, observers, detect=_detect(sensor, truth, observers))  # (trials, T, M, 2, 2)
     gp = g[..., HORIZONTAL_POS, :]  # (trials, T, M, 2, 4): d position / d x_0
     info = np.einsum("ntmia,ntmij,ntmjb->ntmab", gp, w, gp)  # G^T E^T W E G per trial, (trials, T, M, 4, 4)
     prior_info, n = np.linalg.inv(cov0), len(g)
@@ -458,7 +394,16 @@ def pcrlb_planned(sensitivity: np.ndarray, truth: np.ndarray, observers: np.ndar
         left_out = np.concatenate([_pos(_van_trees(prior_info, (sum_info - info[i:i + LOO_CHUNK]) / (n - 1),
                                                    (sum_g - g[i:i + LOO_CHUNK]) / (n - 1)))
                                    for i in range(0, n, LOO_CHUNK)])
-    return Bound(cov=cov, q2=q2, trials=n, left_out=left_out)
+    return Bound(cov=cov, q2=sensor.information_factor(), trials=n, left_out=left_out)
+
+
+def _detect(sensor: MeasurementModel, truth: np.ndarray, observers: np.ndarray) -> np.ndarray | None:
+    """``(trials, T, M, S)``: 1 where sensor s sees target m along the truth, 0 where a
+    building blocks it (line of sight), or None (every scan sees every target).  The
+    information of a blocked scan is 0: its detection probability there is 0."""
+    if not sensor.line_of_sight or observers.shape[-2] == 0:
+        return None
+    return sensor.visible(truth[..., :, None, :3], observers[..., None, :, :3]).astype(float)
 
 
 def jackknife_se(left_out: np.ndarray) -> np.ndarray:

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..declare import setting
 from ..mission import Mission
-from ..sensing import Sensor
+from ..sensing import BearingModel
 from .fixed import FixedSensors, FixedSensorsConfig, NoSensor
 from .grid import GridOptimizer, UavConfig, admissible, candidates, decide, move_offsets, uav_start
 from .lookahead import Lookahead, LookaheadConfig
@@ -68,7 +68,7 @@ class Policy(Protocol):
     position ``(3,)`` or None when no UAV flies."""
 
     name: str
-    sensor: Sensor | None
+    sensor: BearingModel | None
 
     def reset(self, rng: np.random.Generator) -> None:
         """Place the observers for a new trial."""

@@ -8,13 +8,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..declare import SettingError, setting
 from ..mission import Mission
-from ..sensing import Sensor
+from ..sensing import BearingModel
 from ..world import World, fmt, inside_polytopes
 
 
@@ -33,10 +33,10 @@ class FixedSensorsConfig:
 FIXED_FRACTIONS = np.array([[0.15, 0.2], [0.8, 0.2], [0.5, 0.9]])
 
 
-def fixed_sensor(mission: Mission) -> Sensor:
-    """The fixed sensors' :class:`Sensor`: the UAV's noise, their own p_D and clutter."""
+def fixed_sensor(mission: Mission) -> BearingModel:
+    """The fixed sensors' :class:`BearingModel`: the UAV's noise, their own p_D and clutter."""
     f = mission.planner.fixed_sensors
-    return Sensor(sigma=mission.sensor.sigma, p_detect=f.p_detect, clutter_rate=f.clutter_rate)
+    return replace(mission.sensor, p_detect=f.p_detect, clutter_rate=f.clutter_rate)
 
 
 def fixed_sensor_problem(positions: np.ndarray, world: World) -> str | None:

@@ -142,7 +142,7 @@ class GridOptimizer(OneUav):
         (``inf``: not admissible) and the index of the best.  ``forecast`` (the targets'
         plans, see :meth:`act`) is not needed one step ahead."""
         cands, ok = self.moves()
-        best, scores = decide(cands, ok, lambda c: belief.traces(c, self.sensor.sigma))
+        best, scores = decide(cands, ok, lambda c: belief.traces(c, self.sensor))
         return cands, scores, best
 
     def act(self, t: int, belief, action: int | None = None, forecast: list | None = None

@@ -17,7 +17,8 @@ follows the information recursion of the closed-loop bound, in covariance form
 from the UAV's position ``s_k`` adds the information ``q2 h^T h / sigma^2`` on (x, y),
 ``h = (dy, -dx) / r^2``, with ``d`` the predicted mean minus ``s_k`` and ``q2`` the
 information reduction factor of missed detections and clutter
-(:func:`uavsim.bounds.pcrlb.information_reduction_factor`).  The first step's term is Eq. (13)
+(:meth:`uavsim.sensing.BearingModel.information`).  Under line of sight a scan from where a
+predicted mean (on the ground) is hidden adds nothing.  The first step's term is Eq. (13)
 itself, the belief's own pseudo-posterior traces (:meth:`uavsim.belief.Belief.traces`;
 particles for the particle filter), so with ``horizon = 1`` the policy is ``optimized``;
 the later terms come from the recursion, where one scan's trace is the rank-one update
@@ -44,7 +45,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..belief.traces import gaussian_traces
-from ..bounds.pcrlb import information_reduction_factor, pcrlb_step, scan_information
+from ..bounds.pcrlb import pcrlb_step
 from ..declare import setting
 from ..mission import Mission
 from ..targets import HORIZONTAL
@@ -75,8 +76,7 @@ class Lookahead(GridOptimizer):
         self.offsets = np.column_stack([off, np.zeros(len(off))])
         self.a = dyn.a[np.ix_(HORIZONTAL, HORIZONTAL)]
         self.q = dyn.q[np.ix_(HORIZONTAL, HORIZONTAL)]
-        self.q2 = information_reduction_factor(s.sigma, s.p_detect, s.clutter_rate)
-        self.noise = s.sigma / np.sqrt(self.q2) if self.q2 > 0 else np.inf  # a scan's equivalent noise (rad)
+        self.q2 = s.information_factor()
 
     def predicted_means(self, mean: np.ndarray, forecast: list | None = None) -> np.ndarray:
         """``(H, M, 4)`` predicted ``[x, y, vx, vy]`` means (module docstring) from the
@@ -98,17 +98,30 @@ class Lookahead(GridOptimizer):
     def scan(self, cov: np.ndarray, centres: np.ndarray, at: np.ndarray, predict: bool = True) -> np.ndarray:
         """``(B, M, 4, 4)`` covariances ``cov (B, M, 4, 4)`` after one step (``predict``)
         and one scan from ``at (B, >=2)`` (:func:`pcrlb_step` with
-        :func:`scan_information`)."""
+        :meth:`uavsim.sensing.BearingModel.information`)."""
         a, q = (self.a, self.q) if predict else (np.eye(4), np.zeros((4, 4)))
         b, m = cov.shape[:2]
-        info = scan_information(centres, at[:, None, :], self.sensor.sigma, self.q2, MIN_RANGE_M)
+        info = self.sensor.information(centres, at[:, None, :], MIN_RANGE_M, self.seen(centres, at[:, None, :]))
         return pcrlb_step(cov.reshape(-1, 4, 4), a, q, info.reshape(-1, 2, 2)).reshape(b, m, 4, 4)
 
     def traces_after(self, pred: np.ndarray, centres: np.ndarray, at: np.ndarray) -> np.ndarray:
         """``(B, C)`` summed traces of predicted covariances ``pred (B, M, 4, 4)`` after a
         scan from each candidate ``at (B, C, >=2)``: Eq. (13) for Gaussian beliefs
         (:func:`gaussian_traces`) with the scan's noise variance ``sigma^2 / q2``."""
-        return gaussian_traces(at, centres, pred, self.noise, MIN_RANGE_M).sum(-1)
+        if self.q2 == 0:  # no scan informs: the traces of the prediction
+            return np.broadcast_to(np.trace(pred, axis1=-2, axis2=-1).sum(-1)[:, None], at.shape[:2])
+        seen = self.seen(centres, at)
+        return gaussian_traces(at, centres, pred, self.sensor, MIN_RANGE_M, self.q2,
+                               None if seen is None else np.swapaxes(seen, -1, -2)).sum(-1)
+
+    def seen(self, centres: np.ndarray, at: np.ndarray) -> np.ndarray | None:
+        """``(..., M, C)`` 1.0 where the UAV at ``at (..., C, 3)`` sees the predicted means
+        ``centres (M, 2)`` (taken on the ground), 0.0 where a building hides them; None
+        without line of sight."""
+        if not self.sensor.line_of_sight:
+            return None
+        ground = np.column_stack([centres, np.zeros(len(centres))])
+        return self.sensor.visible(ground[:, None, :], at[..., None, :, :]).astype(float)
 
     def rollout(self, starts: np.ndarray, cov: np.ndarray, centres: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The myopic rule flown from each of ``starts (B, 3)`` for steps 1 .. H-1, with
@@ -142,6 +155,6 @@ class Lookahead(GridOptimizer):
             centres = self.predicted_means(mean, forecast)[..., :2]  # (H, M, 2)
             p0 = np.broadcast_to(cov[:, HORIZONTAL][:, :, HORIZONTAL], (len(first),) + (len(mean), 4, 4))
             later, _ = self.rollout(first, self.scan(p0, centres[0], first, predict=False), centres)
-            best[ok] = belief.traces(first, self.sensor.sigma).sum(axis=1) + later  # Eq. (13), then the rollout
+            best[ok] = belief.traces(first, self.sensor).sum(axis=1) + later  # Eq. (13), then the rollout
         return cands, best, int(np.argmin(best))
 

@@ -15,7 +15,7 @@ import numpy as np
 from ..belief import FilterConfig
 from ..declare import si_array
 from ..guidance.model import GuidanceConfig
-from ..sensing import Sensor
+from ..sensing import BearingModel
 from ..targets import TARGET_KEYS, Dynamics
 from ..uav import UavConfig
 from ..uav.manoeuvres import default_sizes
@@ -34,7 +34,7 @@ class Settings:
     region, manoeuvre sizes and fixed sensors are drawn per world."""
 
     dynamics: Dynamics = field(default_factory=Dynamics)
-    sensor: Sensor = field(default_factory=Sensor)
+    sensor: BearingModel = field(default_factory=BearingModel)
     guidance: GuidanceConfig = field(default_factory=GuidanceConfig)
     filter: FilterConfig = field(default_factory=FilterConfig)
     uav: UavConfig = field(default_factory=UavConfig)

@@ -413,12 +413,20 @@ class World:
         return inside_polytopes(np.asarray(points), self.normals, self.offsets).any(axis=-1)
 
     def segment_blocked(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
-        """(...,) bool: straight segment p0 -> p1 touches or crosses any obstacle."""
-        shape = np.broadcast_shapes(np.shape(p0), np.shape(p1))[:-1]
-        if self.n_obstacles == 0:
+        """(...,) bool: straight segment p0 -> p1 touches or crosses any obstacle.  Only the
+        obstacles whose bounding boxes meet the box around every end are tested (a broad
+        phase: a call about one place skips the rest of a town)."""
+        p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
+        shape = np.broadcast_shapes(p0.shape, p1.shape)[:-1]
+        if self.n_obstacles == 0 or 0 in shape:
             return np.zeros(shape, dtype=bool)
-        hit = segments_hit_polytopes(np.asarray(p0), np.asarray(p1), self.normals, self.offsets)
-        return hit.any(axis=-1)
+        ends = (p0.reshape(-1, 3), p1.reshape(-1, 3))
+        lo, hi = np.minimum(*(e.min(axis=0) for e in ends)), np.maximum(*(e.max(axis=0) for e in ends))
+        near = np.flatnonzero(np.all((self.obstacle_lo <= hi) & (self.obstacle_hi >= lo), axis=1))
+        if not len(near):
+            return np.zeros(shape, dtype=bool)
+        hit = segments_hit_polytopes(p0, p1, self.normals[near], self.offsets[near])
+        return np.broadcast_to(hit.any(axis=-1), shape)
 
     def ground(self, margin: float, band: float | None = None) -> tuple[np.ndarray, Polygons]:
         """``(kept, polygons)``: :func:`ground_footprints` of this world's obstacles."""

@@ -43,7 +43,7 @@ import math
 import re
 import unicodedata
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import NamedTuple
 
@@ -1301,7 +1301,7 @@ def town_world(town: Town, pieces: list, n_targets: int, rng, settings=None, nam
     started on streets (:func:`street_starts`) at rest, each given a goal whose free path
     (among the inflated pieces) is ``reach[0]..reach[1]`` of the horizon's straight reach
     ``T dt v_max``, the UAV at ``altitude`` over the whole area, and three fixed sensors on
-    free ground.
+    free ground.  The mission's sensor needs a line of sight (``[sensor] line_of_sight``).
 
     Raises
     ------
@@ -1312,6 +1312,7 @@ def town_world(town: Town, pieces: list, n_targets: int, rng, settings=None, nam
     from .routes import GoalField
 
     s = settings or Settings()
+    s = replace(s, sensor=replace(s.sensor, line_of_sight=True))  # real buildings hide the targets
     margin = s.margin
     found = goal_regions(town, pieces, margin, n=goals)
     if not found:
