@@ -211,3 +211,27 @@ def test_a_box_prism_is_the_cuboid():
     assert diamond.segment_blocked(np.array([[-20.0, 11.0, 1.0], [-20.0, 9.0, 1.0]]),
                                    np.array([[20.0, 11.0, 1.0], [20.0, 9.0, 1.0]])).tolist() == [False, True]
     np.testing.assert_array_equal(diamond.obstacle_lo, [[-10.0, -10.0, 0.0]])
+
+
+def test_segment_blocked_equals_the_exact_clip_of_every_face():
+    """The two-phase test (boxes, circles over the segment's part at obstacle heights, then the
+    footprint's sides) gives the verdict of Cyrus-Beck against all faces of every obstacle, for
+    20 000 random segments among 12 random prisms and cuboids (touching included: segments that
+    end on a face, lie in a roof's plane or stand vertical)."""
+    rng = np.random.default_rng(11)
+    polys = []
+    for c in rng.uniform(20, 180, size=(8, 2)):
+        angles = np.sort(rng.uniform(0, 2 * np.pi, size=rng.integers(3, 9)))
+        polys.append(c + rng.uniform(5, 20) * np.column_stack([np.cos(angles), np.sin(angles)]))
+    lo = rng.uniform(0, 150, size=(4, 2))
+    footprints = Polygons.concat(Polygons.from_list(polys), Polygons.boxes(lo, lo + rng.uniform(5, 40, size=(4, 2))))
+    z = np.column_stack([np.where(rng.random(12) < 0.8, 0.0, 5.0), rng.uniform(8, 40, size=12)])
+    w = World.of_prisms("w", np.zeros(3), np.full(3, 200.0), footprints, z, [f"o{i}" for i in range(12)], ())
+    p0 = rng.uniform(0, 200, size=(20000, 3)) * [1, 1, 0.3]
+    p1 = rng.uniform(0, 200, size=(20000, 3)) * [1, 1, 0.3]
+    p1[:500, :2] = p0[:500, :2]  # vertical
+    p0[500:1000, 2] = p1[500:1000, 2] = z[rng.integers(12, size=500), 1]  # in a roof's plane
+    p1[1000:1500] = w.obstacle_hi[rng.integers(12, size=500)]  # ending on a corner
+    want = segments_hit_polytopes(p0, p1, w.normals, w.offsets).any(axis=-1)
+    np.testing.assert_array_equal(w.segment_blocked(p0, p1), want)
+    assert 0.2 < want.mean() < 0.8

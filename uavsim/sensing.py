@@ -182,16 +182,17 @@ class BearingModel(MeasurementModel):
     def visible(self, points: np.ndarray, observers: np.ndarray) -> np.ndarray:
         """``(...)`` bool: the segment ``observers -> points`` (broadcast, ``(..., 3)``) is
         clear of every obstacle (always True without line of sight).  Points of three or
-        more dimensions (targets first) are taken one target at a time, so that the
+        more dimensions (targets first, ``(M, ..., 3)``) are taken one target at a time, so that the
         obstacle test's broad phase keeps to the buildings near each target's cloud."""
         points, observers = np.asarray(points, dtype=float), np.asarray(observers, dtype=float)
         shape = np.broadcast_shapes(points.shape[:-1], observers.shape[:-1])
         if not self.line_of_sight or self.world is None or self.world.n_obstacles == 0:
             return np.ones(shape, bool)
-        if points.ndim < 4 or points.shape[0] == 1:
+        if points.ndim < 3 or points.ndim < observers.ndim or points.shape[0] == 1:
             return ~self.world.segment_blocked(observers, points)
-        obs = observers if observers.ndim == points.ndim else observers[None]
-        return np.stack([~self.world.segment_blocked(obs[min(j, len(obs) - 1)], p) for j, p in enumerate(points)])
+        same = observers.ndim == points.ndim  # then observers' first axis is the targets' too (or 1)
+        return np.stack([~self.world.segment_blocked(observers[min(j, len(observers) - 1)] if same else observers, p)
+                         for j, p in enumerate(points)])
 
     def detection(self, points: np.ndarray, observers: np.ndarray) -> np.ndarray | float:
         """Detection probability at ``points (..., 3)`` seen from ``observers (..., 3)``:

@@ -24,7 +24,7 @@ from ..sensing import BearingModel, MeasurementModel
 
 BLOCK_ELEMENTS = 1 << 16  # candidate x target x particle entries per block: 256 kB float32 arrays stay in L2
 DECISION_PARTICLES = 1000  # per target: the systematic subsample of :func:`model_traces`
-SIGHT_POINTS = 64  # per target: the particles whose line of sight to every candidate is tested
+SIGHT_POINTS = 32  # per target: the particles whose line of sight to every candidate is tested
 
 
 def pseudo_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray,
@@ -55,16 +55,26 @@ def sight_detection(candidates: np.ndarray, particles: np.ndarray, weights: np.n
     """``(M, C, N)`` float32 detection probability of every particle seen from every
     candidate under line of sight: the segments are tested for :data:`SIGHT_POINTS`
     particles per target (a deterministic systematic subsample), and every particle takes
-    the verdict of its nearest tested one on the ground.  Exact for the tested ones; a
-    particle within a cloud's spacing of a shadow's edge may take the wrong side.  It
+    the verdict of its nearest tested one on the ground (only for the targets a shadow's
+    edge crosses: where every tested particle gets one verdict from a candidate, all
+    take it).  Exact for the tested ones; a particle within a cloud's spacing of a
+    shadow's edge may take the wrong side.  It
     keeps the segment tests at ``C M SIGHT_POINTS`` (vectorised over candidates and
     points; one call per target, see :meth:`~uavsim.sensing.BearingModel.visible`)."""
     reps, _ = _thinned(particles, weights, SIGHT_POINTS)  # (M, K, 6)
     seen = sensor.visible(reps[:, None, :, :3], np.asarray(candidates, float)[None, :, None, :3])  # (M, C, K)
-    gap = particles[:, :, None, :2] - reps[:, None, :, :2]  # (M, N, K, 2)
-    nearest = np.argmin(np.einsum("mnki,mnki->mnk", gap, gap), axis=2)  # (M, N)
-    out = np.take_along_axis(seen, np.broadcast_to(nearest[:, None, :], seen.shape[:2] + nearest.shape[1:]), axis=2)
-    return out.astype(np.float32) * np.float32(sensor.p_detect)
+    out = np.broadcast_to(seen[:, :, :1], seen.shape[:2] + particles.shape[1:2]).astype(np.float32)
+    mixed = np.flatnonzero((seen.any(axis=2) & ~seen.all(axis=2)).any(axis=1))  # targets a shadow's edge crosses
+    if len(mixed):
+        reps, parts = reps[mixed], particles[mixed]
+        centre = reps[:, :1, :2]  # distances in float32 about a point of each cloud
+        p, r = (parts[..., :2] - centre).astype(np.float32), (reps[..., :2] - centre).astype(np.float32)
+        # |p - r|^2 less |p|^2 (the same for every r): a batched product, no (M, N, K, 2) array
+        nearest = np.argmin((r * r).sum(-1)[:, None, :] - 2.0 * (p @ r.transpose(0, 2, 1)), axis=2)  # (M', N)
+        pick = np.broadcast_to(nearest[:, None, :], (len(mixed),) + out.shape[1:])
+        out[mixed] = np.take_along_axis(seen[mixed], pick, axis=2)
+    out *= np.float32(sensor.p_detect)
+    return out
 
 
 def model_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray,

@@ -413,9 +413,13 @@ class World:
         return inside_polytopes(np.asarray(points), self.normals, self.offsets).any(axis=-1)
 
     def segment_blocked(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
-        """(...,) bool: straight segment p0 -> p1 touches or crosses any obstacle.  Only the
-        obstacles whose bounding boxes meet the box around every end are tested (a broad
-        phase: a call about one place skips the rest of a town)."""
+        """(...,) bool: straight segment p0 -> p1 touches or crosses any obstacle.
+
+        Two phases, so that a town costs what the obstacles near each segment cost: only
+        the obstacles whose bounding boxes meet the box around every end are considered,
+        and of those only the pairs where the segment, over the part of it at the
+        obstacle's heights, passes within the circle holding its footprint are clipped
+        exactly (Cyrus-Beck on the footprint's sides, as :func:`segments_hit_polytopes`)."""
         p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
         shape = np.broadcast_shapes(p0.shape, p1.shape)[:-1]
         if self.n_obstacles == 0 or 0 in shape:
@@ -423,10 +427,48 @@ class World:
         ends = (p0.reshape(-1, 3), p1.reshape(-1, 3))
         lo, hi = np.minimum(*(e.min(axis=0) for e in ends)), np.maximum(*(e.max(axis=0) for e in ends))
         near = np.flatnonzero(np.all((self.obstacle_lo <= hi) & (self.obstacle_hi >= lo), axis=1))
+        out = np.zeros(int(np.prod(shape)), dtype=bool)
         if not len(near):
-            return np.zeros(shape, dtype=bool)
-        hit = segments_hit_polytopes(p0, p1, self.normals[near], self.offsets[near])
-        return np.broadcast_to(hit.any(axis=-1), shape)
+            return out.reshape(shape)
+        a = np.broadcast_to(p0, shape + (3,)).reshape(-1, 3)
+        b = np.broadcast_to(p1, shape + (3,)).reshape(-1, 3)
+        centre, radius = self._circles
+        # the part t in [t_lo, t_hi] of each segment at an obstacle's heights ...
+        az, dz = a[:, 2:3], b[:, 2:3] - a[:, 2:3]  # (P, 1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z0, z1 = (self.obstacle_lo[near, 2] - az) / dz, (self.obstacle_hi[near, 2] - az) / dz  # (P, O)
+        flat = dz == 0
+        inside = (self.obstacle_lo[near, 2] <= az) & (az <= self.obstacle_hi[near, 2])
+        t_lo = np.where(flat, np.where(inside, 0.0, 2.0), np.maximum(np.minimum(z0, z1), 0.0))
+        t_hi = np.where(flat, 1.0, np.minimum(np.maximum(z0, z1), 1.0))
+        # ... whose ground track passes within the obstacle's circle
+        dx, dy = b[:, :1] - a[:, :1], b[:, 1:2] - a[:, 1:2]
+        rx, ry = centre[near, 0] - a[:, :1], centre[near, 1] - a[:, 1:2]  # (P, O)
+        dd = dx * dx + dy * dy
+        t = np.clip((rx * dx + ry * dy) / np.where(dd > 0, dd, 1.0), t_lo, t_hi)
+        rx -= t * dx
+        ry -= t * dy
+        seg, obs = np.nonzero((rx * rx + ry * ry <= radius[near] ** 2) & (t_lo <= t_hi))
+        if len(seg):  # Cyrus-Beck on the ground against the footprint's sides, within [t_lo, t_hi]
+            fp, k = self.footprints, near[obs]
+            nx, ny = fp.normals[k, :, 0], fp.normals[k, :, 1]  # (Q, F); padding repeats a side
+            slack = fp.offsets[k] - (nx * a[seg, :1] + ny * a[seg, 1:2])
+            rate = nx * dx[seg] + ny * dy[seg]
+            with np.errstate(divide="ignore", invalid="ignore"):
+                ratio = slack / rate
+            s_hi = np.minimum(np.min(np.where(rate > 0, ratio, np.inf), axis=1), t_hi[seg, obs])
+            s_lo = np.maximum(np.max(np.where(rate < 0, ratio, -np.inf), axis=1), t_lo[seg, obs])
+            hit = np.all((rate != 0) | (slack >= 0), axis=1) & (s_lo <= s_hi)
+            out[seg[hit]] = True
+        return out.reshape(shape)
+
+    @cached_property
+    def _circles(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(centres (n_obs, 2), radii (n_obs,))``: circles on the ground holding each
+        footprint (centred on its bounding box, a little larger: a broad phase)."""
+        centre = 0.5 * (self.obstacle_lo[:, :2] + self.obstacle_hi[:, :2])
+        half_diagonal = 0.5 * np.linalg.norm(self.obstacle_hi[:, :2] - self.obstacle_lo[:, :2], axis=1)
+        return centre, half_diagonal * (1 + 1e-9) + 1e-9
 
     def ground(self, margin: float, band: float | None = None) -> tuple[np.ndarray, Polygons]:
         """``(kept, polygons)``: :func:`ground_footprints` of this world's obstacles."""
