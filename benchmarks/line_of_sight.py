@@ -28,13 +28,10 @@ from uavsim.config import load_mission
 from uavsim.sim import Simulation
 
 
-def timed(fn, repeats: int) -> float:
-    out = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        out.append(time.perf_counter() - t0)
-    return float(np.median(out))
+def seconds(fn) -> float:
+    t0 = time.perf_counter()
+    fn()
+    return time.perf_counter() - t0
 
 
 def one_world(world: str, n: int, particles: int, steps: int, repeats: int) -> dict:
@@ -59,8 +56,8 @@ def one_world(world: str, n: int, particles: int, steps: int, repeats: int) -> d
     update = {"off": [], "on": []}
     for r in range(repeats):
         for name, sensor in ((("off", off), ("on", on)) if r % 2 else (("on", on), ("off", off))):
-            decide[name].append(timed(lambda s=sensor: sim.belief.traces(cands, s), 1))
-            update[name].append(timed(lambda s=sensor: s.log_likelihood(scan, parts, sim.policy.position), 1))
+            decide[name].append(seconds(lambda s=sensor: sim.belief.traces(cands, s)))
+            update[name].append(seconds(lambda s=sensor: s.log_likelihood(scan, parts, sim.policy.position)))
     for k in ("off", "on"):
         row[f"decide_ms_{k}"] = 1e3 * float(np.median(decide[k]))
         row[f"update_ms_{k}"] = 1e3 * float(np.median(update[k]))

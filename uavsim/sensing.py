@@ -94,10 +94,15 @@ class MeasurementModel:
 
         Parameters
         ----------
-        targets : (..., M, >=2) true positions; observers : (..., S, >=2) (leading dimensions
-        broadcast); min_range : r floored there (m); detect : (..., M, S) in [0, 1], the
-        share of the information each sensor delivers (0 where the line of sight is
-        blocked), or None for all of it.
+        targets : (..., M, >=2)
+            True positions.
+        observers : (..., S, >=2)
+            Sensor positions (the leading dimensions broadcast with the targets').
+        min_range : float
+            The range is floored there (m).
+        detect : (..., M, S) or None
+            The share of the information each sensor delivers, in [0, 1] (0 where the
+            line of sight is blocked); None: all of it.
 
         Returns
         -------
