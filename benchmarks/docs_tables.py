@@ -314,15 +314,28 @@ def tables_memory(data: dict | None) -> dict[str, str]:
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None,
-                 runs: dict | None, tracked: dict | None = None) -> dict[str, str]:
+                 runs: dict | None, tracked: dict | None = None, sight: dict | None = None,
+                 sight_cost: dict | None = None) -> dict[str, str]:
     """Real and generated towns: the importer's cover (``osm_import.py``), budgets against
     the wall clock (``budget.py``), the plan of work's CPU (``resources.py``), guidance
-    and the closed loop in towns (``towns.py``) and tracking there (``tracking.py``)."""
+    and the closed loop in towns (``towns.py``), tracking there (``tracking.py``), with
+    and without line of sight (``tracking.py``, ``line_of_sight.py``)."""
     out = {}
     if tracked is not None:
         s = tracked["settings"]
         out["towns-tracking"] = (tracking.table(tracked["rows"]) + f"\n\n{s['trials']} trials of {s['steps']} steps "
                                  "a variant, the same trials in every row of a world. " + provenance(tracked))
+    if sight is not None:
+        s = sight["settings"]
+        out["towns-line-of-sight"] = (tracking.table(sight["rows"]) + f"\n\n{s['trials']} trials of {s['steps']} "
+                                      "steps a variant, the same trials in every row of a world. " + provenance(sight))
+    if sight_cost is not None:
+        rows = [[r["world"], r["obstacles"], f"{r['targets']} x {r['particles']}", r["candidates"],
+                 f"{r['decide_ms_off']:.1f}", f"{r['decide_ms_on']:.1f}", f"{r['decide_ratio']:.2f}",
+                 f"{r['update_ms_off']:.1f}", f"{r['update_ms_on']:.1f}"] for r in sight_cost["figures"]["rows"]]
+        out["towns-line-of-sight-cost"] = md(
+            ["world", "obstacles", "targets x particles", "moves", "decision ms, no line of sight", "with",
+             "ratio", "update ms, no line of sight", "with"], rows) + "\n\n" + provenance(sight_cost)
     if imported is not None:
         out["towns-import"] = osm_import.table(imported["figures"]["crops"]) + "\n\n" + provenance(imported)
     if budgets is not None:
@@ -379,7 +392,9 @@ def pages() -> dict[Path, dict[str, str]]:
             DOCS / "results" / "worlds.md": tables_worlds(_load(DATA / "worlds.json")),
             DOCS / "results" / "towns.md": tables_towns(_load(DATA / "osm-import.json"), _load(DATA / "budget.json"),
                                                         _load(DATA / "plan-of-work.json"), _load(DATA / "towns.json"),
-                                                        _load(DATA / "tracking.json")),
+                                                        _load(DATA / "tracking.json"),
+                                                        _load(DATA / "tracking-line-of-sight.json"),
+                                                        _load(DATA / "line-of-sight.json")),
             DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
                                                 **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
                                                                    "lookahead-clusters2")},

@@ -50,6 +50,7 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "one-level": ("optimized", {"filter.noise_scales": [1.0]}),  # the mission's filter less its noise levels
     "no-loss-detection": ("optimized", {"filter.loss_nats": 0.0}),  # ... less its track-loss detection
     "no-line-of-sight": ("optimized", {"sensor.line_of_sight": False}),  # bearings through buildings (the paper's)
+    "line-of-sight": ("optimized", {"sensor.line_of_sight": True}),  # for generated worlds, whose missions have none
 }
 
 
