@@ -51,6 +51,8 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "no-loss-detection": ("optimized", {"filter.loss_nats": 0.0}),  # ... less its track-loss detection
     "no-line-of-sight": ("optimized", {"sensor.line_of_sight": False}),  # bearings through buildings (the paper's)
     "line-of-sight": ("optimized", {"sensor.line_of_sight": True}),  # for generated worlds, whose missions have none
+    "low-noise": ("optimized", {"filter.noise_scales": [0.03, 0.3], "filter.scale_switch": 0.02}),  # NEES against RMSE
+    "lower-noise": ("optimized", {"filter.noise_scales": [0.01, 0.3]}),
 }
 
 

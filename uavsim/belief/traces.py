@@ -179,8 +179,9 @@ def bearing_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.nd
     lows = np.array(lows, dtype=np.float64)  # (B, M, C) least squared residual per block
     scale = np.exp(-0.5 / sigma**2 * (lows - lows.min(axis=0)))  # each block relative to the best
     total = np.einsum("bmc,bmck->mck", scale, np.array(sums, dtype=np.float64))  # (M, C, 8) in rows' order
-    if detect is None:
-        return _trace_of_sums(total).T
+    if detect is None:  # Eq. (12) as published: every weight sum is positive
+        w0, w1 = total[..., 2], total[..., [0, 1, 3, 4, 5, 6]]
+        return (total[..., 7] / w0 - (w1**2).sum(-1) / w0**2).T
     miss = ((1.0 - detect) @ feats.transpose(0, 2, 1)).astype(np.float64)  # (M, C, 8): sums under w_i (1 - p_i)
     p_miss = miss[..., 2]  # 1 - P_d
     return ((1.0 - p_miss) * _trace_of_sums(total) + p_miss * _trace_of_sums(miss)).T
@@ -188,11 +189,12 @@ def bearing_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.nd
 
 def _trace_of_sums(total: np.ndarray) -> np.ndarray:
     """``(M, C)`` covariance trace from weighted sums ``(M, C, 8)`` in the rows' order
-    (:func:`_particle_rows`); 0 where the weights sum to 0."""
+    (:func:`_particle_rows`); 0 where the weights sum to 0 (a cloud wholly hidden, or
+    wholly seen for the miss), and no overflow where they sum to almost 0."""
     w0, w2 = total[..., 2], total[..., 7]
     w1 = total[..., [0, 1, 3, 4, 5, 6]]
     safe = np.where(w0 > 0, w0, 1.0)
-    return np.where(w0 > 0, w2 / safe - (w1**2).sum(-1) / safe**2, 0.0)
+    return np.where(w0 > 0, w2 / safe - ((w1 / safe[..., None]) ** 2).sum(-1), 0.0)
 
 
 def _particle_rows(particles: np.ndarray, mean: np.ndarray) -> np.ndarray:
