@@ -58,6 +58,25 @@ def test_entities_and_rows(recorded, mission):
     assert rows["/bearings/detections"] == per_step and rows["/bearings/false_alarms"] == per_step
     assert rows["/log"] >= 1  # resampling events at least
     assert rows["/metrics/error/RMSE"] == per_step
+    assert rows["/bearings/blocked"] == 0  # no line of sight in the paper's mission
+
+
+def test_blocked_lines_of_sight_are_drawn(tmp_path):
+    """With line of sight every step logs the blocked segments, one per hidden target, each
+    from the UAV to that target."""
+    m = load_mission(PAPER, {"steps": 3, "trials": 1, "filter.particles": 200, "sensor.line_of_sight": True})
+    path, infos = tmp_path / "los.rrd", []
+    rec = Recorder(path, m, "optimized", 0, particles=10)
+    try:
+        run_trial(m, "optimized", 0, trial_seeds(m.seed, 1)[0], on_step=lambda i: (infos.append(i), rec(i)))
+    finally:
+        rec.close()
+    _, rows, _ = rows_per_entity(path)
+    assert rows["/bearings/blocked"] == 3  # the steps with scans (the reset has none)
+    hidden = [i.scans[0].blocked for i in infos if i.scans]
+    assert all(h is not None for h in hidden)
+    assert [np.array_equal(h, ~m.sensor.visible(i.truth[:, :3], i.observers[0])) for h, i in
+            zip(hidden, [i for i in infos if i.scans])] == [True] * 3
 
 
 def test_recording_changes_no_result(recorded, mission):
