@@ -278,3 +278,27 @@ def test_a_range_bearing_model_flies_through_filter_traces_and_bound():
     info = 0.9 * h.T @ np.linalg.inv(model.noise_cov) @ h
     pred = (dyn.a @ cov0 @ dyn.a.T + dyn.q)[np.ix_([0, 1], [0, 1])]
     np.testing.assert_allclose(b.cov[0, 0][:2, :2], np.linalg.inv(np.linalg.inv(pred) + info), rtol=1e-6)
+
+
+def test_sight_detection_takes_the_nearest_tested_verdict(monkeypatch):
+    """A cloud straddling the block's shadow: with every particle tested the detection is the
+    exact visibility; with 32 tested (the default) the nearest verdicts agree with it for at
+    least 90% of 2000 particles, and only near the shadow's edge."""
+    from uavsim.belief import traces
+
+    rng = np.random.default_rng(5)
+    particles = np.zeros((1, 2000, 6))
+    particles[0, :, :2] = [100.0, 125.0] + rng.normal(size=(2000, 2)) * 8.0  # the shadow's edge: y = 125 at x = 100
+    w = np.full((1, 2000), 1 / 2000)
+    cands = np.array([UAV, UAV + [0, 5.0, 0]])
+    s = _los(0.9)
+    exact = 0.9 * s.visible(particles[:, None, :, :3], cands[None, :, None, :])
+    monkeypatch.setattr(traces, "SIGHT_POINTS", 2000)
+    np.testing.assert_array_equal(traces.sight_detection(cands, particles, w, s), exact.astype(np.float32))
+    monkeypatch.setattr(traces, "SIGHT_POINTS", 32)
+    got = traces.sight_detection(cands, particles, w, s)
+    assert 0.2 < exact.mean() / 0.9 < 0.8  # the cloud is split by the edge
+    wrong = got != exact.astype(np.float32)
+    assert wrong.mean() < 0.1
+    x, y = particles[0, wrong[0, 0], 0], particles[0, wrong[0, 0], 1]
+    assert np.abs(y - (100.0 + x / 4.0)).max() < 8.0  # one cloud sigma of the edge (UAV over the corner (40, 110))
