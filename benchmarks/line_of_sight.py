@@ -9,7 +9,7 @@ mission puts them.  Then, on that predicted belief, the decision's traces for ev
 (:meth:`uavsim.belief.Belief.traces`) and one scan's likelihood for every particle
 (:meth:`uavsim.sensing.BearingModel.log_likelihood`) are timed with the mission's sensor and
 with the same sensor less line of sight, interleaved, ``--repeats`` times each (medians, one
-BLAS thread).  The issue's target: the decision with line of sight at most twice its cost
+BLAS thread).  The aim: the decision with line of sight at most twice its cost
 without.
 """
 

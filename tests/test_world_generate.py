@@ -48,7 +48,7 @@ def test_generated_missions_carry_the_paper_numbers(suite):
         # detected and re-seeded, and particles carry one of two process-noise levels
         # (docs/methods/filter.md)
         assert m.guidance == paper.guidance
-        assert m.filter == replace(paper.filter, plan_clusters=2, loss_nats=10.0, noise_scales=(0.1, 1.0))
+        assert m.filter == replace(paper.filter, plan_clusters=2, loss_nats=10.0, noise_scales=(0.03, 0.3))
         assert (m.uav.step, m.uav.n_theta, m.uav.n_r, m.steps) == (paper.uav.step, paper.uav.n_theta,
                                                                     paper.uav.n_r, paper.steps)
         for t in m.targets:

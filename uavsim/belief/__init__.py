@@ -60,11 +60,11 @@ class FilterConfig:
                                    "nats, and re-seed it from the bearings; 0: never (the paper's filter)")
     reseed_share: float = setting("reseed_share", 0.5, lo=0.01, hi=1,
                                   doc="share of a lost track's particles re-seeded from the bearings and routes")
-    noise_scales: tuple[float, ...] = setting("noise_scales", [0.1, 1.0], kind="array", shape=(None,), lo=1e-6, hi=1e6,
+    noise_scales: tuple[float, ...] = setting("noise_scales", [0.03, 0.3], kind="array", shape=(None,), lo=1e-6, hi=1e6,
                                        doc="multipliers of the process noise Q a particle may carry (jump-Markov "
                                            "[McGinnity2000]: the bearings weigh which fits); one value: every "
                                            "particle uses Q")
-    scale_switch: float = setting("scale_switch", 0.05, lo=0, hi=1,
+    scale_switch: float = setting("scale_switch", 0.02, lo=0, hi=1,
                                   doc="per step, the chance a particle redraws its process-noise multiplier")
     plan_clusters: int = setting("plan_clusters", kind="integer", lo=1, hi=2, derived="2 for kind = particle, else 1",
                                  doc="plans per target: 1 from the mean, 2 one per half of the particle cloud")
