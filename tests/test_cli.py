@@ -273,3 +273,12 @@ def test_the_installation_page_names_every_extra_and_core_dependency():
     for dep in meta["dependencies"]:
         name = dep.split(">")[0].split("<")[0].split("=")[0].split("[")[0]
         assert {"osmium": "pyosmium"}.get(name, name) in page, name
+
+
+def test_the_bound_under_line_of_sight_is_said_not_strict():
+    """With line of sight the printed PCRLB leaves out what a miss says; the run says so."""
+    from uavsim.cli import _bound_text
+
+    s = {"pcrlb_q2": 0.936, "time_avg_pcrlb_se": None, "occluded_per_target": None}
+    assert "not strict" not in _bound_text(s)
+    assert "not strict" in _bound_text({**s, "occluded_per_target": [0.3, 0.0]})

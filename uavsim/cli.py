@@ -323,6 +323,9 @@ def _study(args: argparse.Namespace, mission: Mission, planner: str, out: Path, 
 def _bound_text(s: dict) -> str:
     """What the printed PCRLB bounds, and how well the trials pin it down."""
     what = f"information reduction factor {s['pcrlb_q2']:.3f}"
+    if s.get("occluded_per_target") is not None:
+        what += ("; line of sight: it counts the bearings, not what a miss says about where the target hides, "
+                 "so it is not strict")
     if s.get("time_avg_pcrlb_se") is None:
         return f"bounds the RMSE over the prior, estimated from one trial's path only ({what})"
     return (f"bounds the RMSE over the prior, not each path's; Monte-Carlo s.e. {s['time_avg_pcrlb_se']:.2f} / "

@@ -112,6 +112,10 @@ And the simulator draws true starts from the prior restricted to starts that can
 out of every building (:func:`uavsim.truth.start_acceptance` says how much of it is
 kept), while ``J_0 = Sigma_0^-1`` is the unrestricted prior's: where the restriction
 bites, an estimator that knows it may beat the bound (campaign summaries report both).
+Under line of sight (``[sensor] line_of_sight``) a scan's information is that of its
+bearings where the truth is visible and 0 where it is hidden; what a miss says about
+where the target hides is left out (the detection's likelihood jumps at a shadow's edge,
+where the regularity the bound needs fails), so the bound is not strict there either.
 """
 
 from __future__ import annotations
