@@ -150,3 +150,23 @@ def test_no_detections_leave_only_the_first_step():
     ok = np.isfinite(first)
     assert best == first_best
     assert np.ptp(scores[ok] - first[ok]) <= 1e-9 * scores[ok].max()
+
+
+def test_a_hidden_mean_gains_nothing_in_the_recursion():
+    """Under line of sight a scan from where a predicted mean is hidden leaves its
+    covariance as predicted, and one from where it is seen is the scan without line of
+    sight: here the paper's world with the UAV at ground level behind an obstacle."""
+    m0 = load_mission(PAPER)
+    m = replace(m0, sensor=replace(m0.sensor, line_of_sight=True, world=m0.world))
+    pol, plain = make_policy("lookahead", m), make_policy("lookahead", m0)
+    w = m.world
+    lo, hi = w.obstacle_lo[0], w.obstacle_hi[0]
+    centre = (lo[:2] + hi[:2]) / 2
+    behind = np.array([[centre[0], hi[1] + 30.0], [centre[0], lo[1] - 30.0]])  # north of it; south of it
+    at = np.array([[centre[0], lo[1] - 20.0, 1.0]])  # the UAV south of the obstacle, below its roof
+    assert pol.seen(behind, at[:, None, :]).ravel().tolist() == [0.0, 1.0]
+    cov = np.broadcast_to(np.diag([100.0, 100, 4, 4]), (1, 2, 4, 4)).copy()
+    after, without = pol.scan(cov, behind, at, predict=False), plain.scan(cov, behind, at, predict=False)
+    np.testing.assert_array_equal(after[0, 0], cov[0, 0])
+    np.testing.assert_allclose(after[0, 1], without[0, 1], rtol=1e-12)
+    assert np.trace(after[0, 1]) < np.trace(cov[0, 1])
