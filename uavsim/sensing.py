@@ -138,7 +138,7 @@ class BearingModel(MeasurementModel):
     sigma : bearing noise std (rad); p_detect : p_D; clutter_rate : Lambda (per scan, per
     channel); line_of_sight : detections need a clear line of sight (module docstring).
     world : the obstacles that block it (set by the mission reader when
-    ``line_of_sight`` is on; not a setting).
+    ``line_of_sight`` is on; not a setting); None: nothing blocks it.
     """
 
     sigma: float = setting("sigma_deg", 1.0, unit="deg", lo=0.001, hi=SIGMA_MAX_DEG, **degrees,
