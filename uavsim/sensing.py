@@ -169,14 +169,6 @@ class BearingModel(MeasurementModel):
         """``d l / d(x, y)`` ``(..., M, S, 1, 2)`` (:func:`bearing_gradients`)."""
         return bearing_gradients(targets, observers, min_range)[..., None, :]
 
-    def information(self, targets: np.ndarray, observers: np.ndarray, min_range: float = 0.0,
-                    detect: np.ndarray | None = None) -> np.ndarray:
-        """:meth:`MeasurementModel.information` for bearings: ``q2 / sigma^2 sum_s w_s h_s^T h_s``."""
-        h = bearing_gradients(targets, observers, min_range)  # (..., M, S, 2)
-        if detect is not None:
-            h = h * np.sqrt(detect)[..., None]
-        return (self.information_factor() / self.sigma**2) * np.einsum("...msi,...msj->...mij", h, h)
-
     def information_factor(self) -> float:
         """The IRF q2 of one scan with missed detections and clutter
         (:func:`uavsim.bounds.pcrlb.information_reduction_factor`, cached)."""
@@ -463,9 +455,6 @@ def scan_loglik(scan: Scan, particles: np.ndarray, observer: np.ndarray, sensor:
     if sensor.line_of_sight:
         hidden = ~sensor.visible(particles[..., :3], np.asarray(observer, float)[:3])  # (M, N)
         if hidden.any():
-            n = np.count_nonzero(scan.valid, axis=1)
-            lam = sensor.clutter_rate
-            with np.errstate(divide="ignore", invalid="ignore"):
-                all_clutter = np.where(n == 0, 0.0, n * (math.log(lam) if lam > 0 else -np.inf)) - n * LOG_2PI - lam
-            out = np.where(hidden, all_clutter[:, None], out)
+            all_clutter = _hypothesis_logs(np.count_nonzero(scan.valid, axis=1), sensor.clutter_rate, 0.0)[0]
+            out = np.where(hidden, (all_clutter - sensor.clutter_rate)[:, None], out)
     return out
