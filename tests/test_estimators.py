@@ -167,7 +167,14 @@ def test_every_estimator_keeps_one_contract(est):
             warnings.simplefilter("ignore")
             fitted = est.fit(TIMES, b, OBS)
         assert fitted is est and est.predict(TIMES).shape == (K, 4) and est.cov_.shape[-2:] == (4, 4)
+        states, covs = est.predict(TIMES, return_cov=True)
+        np.testing.assert_allclose(states[0], est.x_[:4])
+        np.testing.assert_allclose(covs[0], est.cov_[:4, :4])  # at the fitted time: the estimate's own
         assert isinstance(NotFittedError("x"), ValueError)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            batch = type(est)(**params).fit(TIMES, np.stack([b, bearings(1)]), OBS)  # (R, K): two runs at once
+        assert batch.x_.shape[0] == 2 and batch.predict(TIMES, return_cov=True)[1].shape == (2, K, 4, 4)
     else:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -247,3 +254,24 @@ def test_compass_bearings_in_radians_are_wrapped_not_refused():
     for make in (lambda: PLMMSE(SIGMA, **PRIOR), lambda: PLKF(SIGMA, kind="iv-plkf", **PRIOR)):
         np.testing.assert_allclose(make().filter(TIMES, compass, OBS)[0], make().filter(TIMES, wrapped, OBS)[0],
                                    rtol=1e-9, atol=1e-6)
+
+
+def test_batches_and_predicted_covariances_are_the_single_runs_and_hand_values():
+    """ConstrainedMLE fitted on (R, K) bearings equals R single fits (to 1e-6 m); a
+    predicted covariance is cov_ carried along the constant-velocity track: the position
+    variance at dt is P_xx + 2 dt P_xvx + dt^2 P_vxvx, written out here."""
+    from uavsim.estimators import ConstrainedMLE
+
+    runs = np.stack([bearings(s) for s in range(3)])
+    batch = ConstrainedMLE(SIGMA, order=1).fit(TIMES, runs, OBS)
+    for r in range(3):
+        one = ConstrainedMLE(SIGMA, order=1).fit(TIMES, runs[r], OBS)
+        np.testing.assert_allclose(batch.x_[r], one.x_, atol=1e-6)
+        np.testing.assert_allclose(batch.cov_[r], one.cov_, rtol=1e-6)
+        assert batch.converged_[r] == one.converged_
+    for est in (batch, BatchTMA(SIGMA, method="nr", rng=np.random.default_rng(2)).fit(TIMES, runs, OBS)):
+        _, covs = est.predict(TIMES, return_cov=True)
+        p, dt = est.cov_, TIMES[-1] - TIMES[0]
+        np.testing.assert_allclose(covs[:, -1, 0, 0], p[:, 0, 0] + 2 * dt * p[:, 0, 2] + dt**2 * p[:, 2, 2],
+                                   rtol=1e-9)
+        np.testing.assert_allclose(covs[:, -1, 2, 2], p[:, 2, 2], rtol=1e-12)

@@ -384,40 +384,65 @@ class ConstrainedMLE(Params):
         self.convention, self.units = convention, units
 
     def fit(self, times, bearings, observers) -> ConstrainedMLE:
-        from .batch import crlb, polynomial_basis, prepare
+        """``times (K,)`` s; ``bearings (K,)`` or ``(R, K)`` (R independent runs, solved as
+        one batch by Levenberg-Marquardt and one SLSQP problem a run with intelligence);
+        ``observers (K, 2)`` or ``(R, K, 2)`` m.  The attributes gain a leading ``R`` axis
+        after a batch, as :class:`uavsim.estimators.nrpso.BatchTMA`'s do."""
+        from .batch import fisher, polynomial_basis, prepare, spd_inverse
         from .intelligence import Intelligence, TrackConstraints, pseudo_linear, solve
 
         b = np.asarray(bearings, dtype=float)
         n = 2 * (self.order + 1)
-        if b.ndim != 1 or len(b) < n:
-            raise ValueError(f"bearings has shape {b.shape}; expected (K,) with K >= {n} scans for the {n} unknowns")
-        t = check_times(times, len(b))
+        if b.ndim not in (1, 2) or b.shape[-1] < n:
+            raise ValueError(f"bearings has shape {b.shape}; expected (K,) or (R, K) with K >= {n} scans for the "
+                             f"{n} unknowns")
+        t = check_times(times, b.shape[-1])
         b = check_bearings(b, self.convention, "east-ccw", self.units, shape=b.shape)
-        obs = check_points(observers, len(b), "observers")
+        obs = np.asarray(observers, dtype=float)
+        if obs.shape not in ((b.shape[-1], 2), (*b.shape, 2)) or not np.all(np.isfinite(obs)):
+            raise ValueError(f"observers has shape {obs.shape}; expected ({b.shape[-1]}, 2) or {(*b.shape, 2)} "
+                             "of finite numbers")
         phi = polynomial_basis(t, self.order)
         data = prepare(phi, obs, b, self._sigma)
         res = solve(data, pseudo_linear(data))
         if self.inside or self.outside:
             tc = TrackConstraints(Intelligence(self.inside, self.outside), phi)
             res = solve(data, res.theta, tc)
-        self.t0_, self.x_ = float(t[0]), res.theta[0, 0]
-        self.converged_, self.violation_ = bool(res.converged[0, 0]), float(res.violation[0, 0])
-        try:
-            self.cov_ = crlb(phi, obs, self.x_, self._sigma)
-        except ValueError:
-            self.cov_ = np.full((n, n), np.nan)
-            self.converged_ = False
+        x = res.theta[:, 0]
+        cov, ok = spd_inverse(fisher(data, x[:, None])[:, 0])  # the Fisher matrix does not use the bearings
+        self.t0_, self.x_ = float(t[0]), x
+        self.cov_ = np.where(ok[:, None, None], cov, np.nan)
+        self.converged_, self.violation_ = res.converged[:, 0] & ok, res.violation[:, 0]
+        if b.ndim == 1:
+            for name in ("x_", "cov_", "converged_", "violation_"):
+                setattr(self, name, getattr(self, name)[0])
+            self.converged_, self.violation_ = bool(self.converged_), float(self.violation_)
         return self
 
-    def predict(self, times) -> np.ndarray:
-        """States ``[px, py, vx, vy]`` ``(K, 4)`` of the fitted track at ``times`` (as
-        :meth:`uavsim.estimators.nrpso.BatchTMA.predict`; the acceleration of order 2 is
-        ``x_[4:]``)."""
+    def predict(self, times, return_cov: bool = False):
+        """States ``[px, py, vx, vy]`` ``(K, 4)`` of the fitted track at ``times`` (``(R, K,
+        4)`` after a batch fit; the acceleration of order 2 is ``x_[4:]``), and with
+        ``return_cov`` their covariances ``(K, 4, 4)``: ``cov_`` carried along the track (as
+        :meth:`uavsim.estimators.nrpso.BatchTMA.predict`)."""
         from .batch import polynomial_basis
 
         if not hasattr(self, "x_"):
             raise NotFittedError("this ConstrainedMLE is not fitted: call fit before predict")
-        t = np.asarray(times, float)
-        pos = polynomial_basis(t, self.order, t_ref=self.t0_) @ self.x_
-        vel = polynomial_basis(t, self.order - 1, t_ref=self.t0_) @ self.x_[2:]
-        return np.concatenate([pos, vel], axis=-1)
+        t = np.asarray(times, dtype=float)
+        if t.ndim != 1 or len(t) == 0 or not np.isfinite(t).all():
+            raise ValueError(f"times must be a non-empty 1-D array of finite seconds; got shape {t.shape}")
+        pos = polynomial_basis(t, self.order, t_ref=self.t0_)  # (K, 2, n)
+        vel = np.pad(polynomial_basis(t, self.order - 1, t_ref=self.t0_), ((0, 0), (0, 0), (2, 0)))
+        return track(np.concatenate([pos, vel], axis=1), self.x_, self.cov_, return_cov)
+
+
+def track(m, x, cov, return_cov: bool):
+    """States ``m x`` at K times from a batch fit's parameters ``x (n,)`` or ``(R, n)``, and
+    with ``return_cov`` their covariances ``m cov m^T``: ``m (K, 4, n)`` maps the
+    parameters to ``[px, py, vx, vy]`` at each time (linear, so the covariance is exact
+    for the parameters' ``cov``)."""
+    x, cov = np.asarray(x), np.asarray(cov)
+    states = np.einsum("kin,...n->...ki", m, x)
+    if not return_cov:
+        return states
+    return states, np.einsum("kin,...nm,kjm->...kij", m, cov, m)

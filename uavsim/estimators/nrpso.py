@@ -382,18 +382,20 @@ class BatchTMA(api.Params):
         self.t0_ = float(t[0])
         return self._fit(t, b, obs)
 
-    def predict(self, times) -> np.ndarray:
+    def predict(self, times, return_cov: bool = False):
         """The fitted track at ``times (K,)``: states ``(K, 4)`` (``(R, K, 4)`` after a
-        batch fit), constant velocity from ``x_`` at the first fitted time."""
+        batch fit), constant velocity from ``x_`` at the first fitted time; with
+        ``return_cov`` also their covariances ``(K, 4, 4)`` (``(R, K, 4, 4)``), ``cov_``
+        carried along the track: ``F cov_ F^T`` with ``F = [[I, dt I], [0, I]]``."""
         if not hasattr(self, "x_"):
             raise api.NotFittedError("this BatchTMA is not fitted: call fit before predict")
         t = np.asarray(times, dtype=float)
-        if t.ndim != 1 or not np.isfinite(t).all():
-            raise ValueError(f"times must be a 1-D array of finite seconds; got shape {t.shape}")
-        dt = t - self.t0_
-        x = np.asarray(self.x_)[..., None, :]
-        return np.concatenate([x[..., :2] + dt[:, None] * x[..., 2:], np.broadcast_to(x[..., 2:], (*x.shape[:-2],
-                                                                                                 len(dt), 2))], -1)
+        if t.ndim != 1 or len(t) == 0 or not np.isfinite(t).all():
+            raise ValueError(f"times must be a non-empty 1-D array of finite seconds; got shape {t.shape}")
+        m = np.zeros((len(t), 4, 4))
+        m[:] = np.eye(4)
+        m[:, [0, 1], [2, 3]] = (t - self.t0_)[:, None]
+        return api.track(m, self.x_, self.cov_, return_cov)
 
     def _fit(self, times, bearings, observer_positions) -> BatchTMA:
         single = np.ndim(bearings) == 1
