@@ -1,9 +1,12 @@
 """The documentation's result tables are built from the benchmarks' JSON, not typed: each
 page's tables equal what its builder makes of the committed JSON files."""
 
+import os
 import subprocess
 import sys
 from pathlib import Path
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -80,3 +83,147 @@ def test_the_api_reference_names_every_public_estimator():
     missing = [n for n in est.__all__ if n.isidentifier() and not n.isupper()
                and not any(line.startswith(":::") and line.endswith(f".{n}") for line in page.splitlines())]
     assert missing == [], f"add to docs/api.md: {missing}"
+
+
+# ------------------------------------------------------------------ every code block runs
+PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+SHELLS = ("sh", "bash")
+
+
+def code_blocks(page: Path, languages: tuple[str, ...]) -> list[tuple[int, str]]:
+    """The fenced blocks of ``page`` in one of ``languages``: (first line number, text),
+    indentation (a block inside a list) removed."""
+    import textwrap
+
+    blocks, lines, start = [], page.read_text().splitlines(), None
+    for n, line in enumerate(lines, 1):
+        stripped = line.strip()
+        if start is None and stripped.startswith("```") and stripped[3:].strip() in languages:
+            start, body = n, []
+        elif start is not None and stripped == "```":
+            blocks.append((start, textwrap.dedent("\n".join(body))))
+            start = None
+        elif start is not None:
+            body.append(line)
+    return blocks
+
+
+def shell_commands(text: str) -> list[list[str]]:
+    """A shell block's commands as argument lists: continuations joined, comments dropped,
+    ``&&`` chains split."""
+    import shlex
+
+    commands = []
+    for line in text.replace("\\\n", " ").splitlines():
+        words, current = shlex.split(line, comments=True), []
+        for w in [*words, "&&"]:
+            if w == "&&":
+                if current:
+                    commands.append(current)
+                current = []
+            else:
+                current.append(w)
+    return commands
+
+
+def page_id(page: Path) -> str:
+    return str(page.relative_to(ROOT))
+
+
+@pytest.mark.parametrize("page", [p for p in PAGES if code_blocks(p, ("python",))], ids=page_id)
+def test_every_python_block_runs(page, tmp_path):
+    """A page's Python blocks run in order, as written, in one interpreter (a later block
+    may use an earlier one's names), from the repository's root (blocks name
+    ``missions/paper.toml``): no undefined names, no stale API."""
+    code = "\n\n".join(text for _, text in code_blocks(page, ("python",)))
+    env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONWARNINGS": "ignore"}
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, env=env,
+                         timeout=600)
+    assert out.returncode == 0, f"{page_id(page)}: a block fails:\n{out.stderr[-3000:]}"
+
+
+def test_every_toml_block_is_a_valid_world_and_mission(tmp_path):
+    """The world-format page's example world, written as the README's ``world.toml``, and
+    the README's mission beside it load through the validator: the two snippets are a
+    complete mission."""
+    from uavsim.config import load_mission
+
+    (world,) = [t for _, t in code_blocks(ROOT / "docs" / "world-format.md", ("toml",))]
+    (mission,) = [t for _, t in code_blocks(ROOT / "README.md", ("toml",))]
+    (tmp_path / "world.toml").write_text(world)
+    (tmp_path / "mission.toml").write_text(mission)
+    m = load_mission(tmp_path / "mission.toml")
+    assert [t.name for t in m.targets] == ["T1"] and m.world.obstacle_names == ("block", "tower")
+
+
+KNOWN = {"python3 -m venv", ". .venv/bin/activate", "pip install", "python -m pytest", "rerun",
+         "git checkout", "mkdocs serve", "mkdocs build"}
+RUN_AS_WRITTEN = ("uavsim validate", "uavsim world generate", "uavsim world import", "uavsim plan", "uavsim missions")
+
+
+def every_shell_command() -> list[tuple[str, list[str]]]:
+    return [(where, cmd) for where, commands in shell_blocks() for cmd in commands]
+
+
+def test_every_shell_command_is_known():
+    """Every command of the README's and the docs' shell blocks is uavsim's, a benchmark's,
+    or one of a few named tools (venv, pip, pytest, rerun, git, mkdocs): a new kind of
+    command needs a check here."""
+    commands = every_shell_command()
+    assert len(commands) > 30
+    unknown = [(where, " ".join(c)) for where, c in commands if c[0] != "uavsim"
+               and not (c[0] == "python" and c[1].startswith("benchmarks/"))
+               and not any(" ".join(c).startswith(k) for k in KNOWN)]
+    assert unknown == []
+
+
+def shell_blocks() -> list[tuple[str, list[list[str]]]]:
+    return [(f"{page_id(p)}:{n}", shell_commands(text)) for p in PAGES for n, text in code_blocks(p, SHELLS)]
+
+
+@pytest.mark.parametrize("where, commands", [(w, c) for w, c in shell_blocks() if any(x[0] == "uavsim" for x in c)],
+                         ids=lambda v: v if isinstance(v, str) else None)
+def test_every_uavsim_command_parses_and_the_quick_ones_run(where, commands, tmp_path):
+    """Each ``uavsim`` line of the docs parses with the command line's own parser (an
+    option renamed or dropped fails here), and every repository file it names exists.
+    The quick ones (validate, world generate and import, plan, missions) run as written,
+    in the block's order, in a folder with the repository's missions and worlds (a plan
+    of ``my/mission.toml`` needs the world the line before generated); campaigns (run,
+    compare, sweep, tma reproduce: minutes to hours) are parsed only, and the test suite
+    runs each of them on small missions."""
+    from uavsim.cli import build_parser
+
+    for folder in ("missions", "worlds"):
+        (tmp_path / folder).symlink_to(ROOT / folder)
+    for command in (c for c in commands if c[0] == "uavsim"):
+        argv, line = command[1:], " ".join(command)
+        try:
+            build_parser().parse_args(argv)
+        except SystemExit as e:
+            pytest.fail(f"{where}: {line} does not parse (exit {e.code})")
+        named = [a for a in argv if a.startswith(("missions/", "worlds/"))]
+        assert all((ROOT / a).exists() for a in named), f"{where}: names a missing file: {named}"
+        if line.startswith(RUN_AS_WRITTEN):
+            out = subprocess.run([sys.executable, "-m", "uavsim", *argv], cwd=tmp_path, capture_output=True,
+                                 text=True, timeout=600)
+            assert out.returncode == 0, f"{where}: {line}:\n{out.stderr[-2000:]}"
+
+
+@pytest.mark.parametrize("where, command", [(w, c) for w, c in every_shell_command()
+                                            if c[0] == "python" and c[1].startswith("benchmarks/")],
+                         ids=lambda v: v if isinstance(v, str) else None)
+def test_every_benchmark_command_parses(where, command):
+    """Each benchmark line of the docs parses with the script's own parser (the script
+    stops as soon as its arguments are parsed: the options and their values are checked,
+    nothing is measured)."""
+    probe = ("import argparse, runpy, sys\n"
+             "parse = argparse.ArgumentParser.parse_args\n"
+             "def parse_only(self, *args, **kwargs):\n"
+             "    parse(self, *args, **kwargs)\n"
+             "    raise SystemExit(0)  # parsed: stop before any measurement\n"
+             "argparse.ArgumentParser.parse_args = parse_only\n"
+             f"sys.argv = {[Path(command[1]).name, *command[2:]]!r}\n"
+             f"runpy.run_path({command[1].removeprefix('benchmarks/')!r}, run_name='__main__')\n")
+    out = subprocess.run([sys.executable, "-c", probe], cwd=ROOT / "benchmarks", capture_output=True, text=True,
+                         timeout=120)
+    assert out.returncode == 0, f"{where}: {' '.join(command)}:\n{out.stderr[-2000:]}"
