@@ -210,3 +210,17 @@ def test_rerun_render_mode_writes_a_recording(tmp_path):
     env.step(0)
     env.close()
     assert (tmp_path / "episode.rrd").stat().st_size > 10_000
+
+
+def test_the_environment_card_states_the_paper_missions_spaces():
+    """docs/guide/environment.md's card: Discrete(61) (1 + 4 x 15 grid moves of Eq. (3)),
+    4 targets, 50 steps; the figures here are the environment's own."""
+    from pathlib import Path
+
+    card = (Path(__file__).resolve().parents[1] / "docs" / "guide" / "environment.md").read_text()
+    env = UavsimEnv()
+    n = env.observation_space["mean"].shape[0]
+    assert f"`{env.action_space}` on the paper mission" in card and env.action_space.n == 61
+    assert f"({n} on the paper mission)" in card and n == 4
+    assert f"({env.mission.steps} on the paper mission)" in card and env.mission.steps == 50
+    assert env.observation_space["cov"].shape == (n, 6, 6) and env.observation_space["uav"].shape == (3,)
