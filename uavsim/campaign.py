@@ -69,6 +69,12 @@ from .sim import STAGES, Simulation
 from .truth import start_acceptance
 from .uav import BASELINE, MANOEUVRES, make_policy
 
+__all__ = [  # the public interface (docs/api.md renders each)
+    "CampaignError", "CampaignFailed", "CampaignWarning", "Held", "TrialResult", "Work", "campaign_lock",
+    "clear", "held", "load_trials", "one_blas_thread", "plan_of_work", "run_campaign", "run_trial", "summarize",
+    "trial_seeds", "with_baseline"
+]
+
 try:
     import fcntl
 except ImportError:  # Windows: campaign folders are not locked

@@ -41,6 +41,8 @@ from .uav.manoeuvres import default_sizes, manoeuvre_loop
 from .world import GoalRegion, Polygons, Region2D, World, convex_ccw, fmt, inside_polytopes
 from .world.model import GROUND_BAND_M, WORLD_KEYS
 
+__all__ = ["load_mission", "load_world", "parse_value"]  # the public interface (docs/api.md renders each)
+
 _W = {table: {s.key: s for s in keys} for table, keys in WORLD_KEYS.items()}  # the world's declarations by key
 
 MAX_FILE_BYTES = 16 * 2**20  # a mission or world file larger than this is not one a person wrote

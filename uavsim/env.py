@@ -81,6 +81,8 @@ from .shipped import mission_path
 from .sim import Simulation
 from .uav import move_offsets
 
+__all__ = ["ENV_ID", "InvalidActionError", "UavsimEnv"]  # the public interface (docs/api.md renders each)
+
 ENV_ID = "uavsim/Monitoring-v0"
 
 

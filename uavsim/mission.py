@@ -16,6 +16,8 @@ import numpy as np
 
 from .declare import SettingError, setting
 
+__all__ = ["Mission", "MissionError", "advisories", "mission_errors"]  # the public interface (docs/api.md)
+
 if TYPE_CHECKING:  # annotations only: the settings' modules import MissionError from here
     from .belief import FilterConfig
     from .guidance.model import GuidanceConfig

@@ -42,6 +42,11 @@ import numpy as np
 
 from .declare import degrees, setting
 
+__all__ = [  # the public interface (docs/api.md renders each)
+    "BearingModel", "MeasurementModel", "Scan", "bearing", "bearing_gradients", "log_likelihood", "observe",
+    "scan_loglik", "uniform_loglik", "wrap_angle"
+]
+
 
 def wrap_angle(angle: np.ndarray) -> np.ndarray:
     """Wrap angles to ``(-pi, pi]`` (``-pi`` maps to ``+pi``)."""
@@ -218,8 +223,12 @@ def bearing_gradients(targets: np.ndarray, observers: np.ndarray, min_range: flo
 
     Parameters
     ----------
-    targets : (..., M, >=2) true positions; observers : (..., S, >=2) sensor positions
-    (the leading dimensions broadcast); min_range : r floored there (m); 0: no floor.
+    targets : (..., M, >=2)
+        True positions.
+    observers : (..., S, >=2)
+        Sensor positions (the leading dimensions broadcast).
+    min_range : float
+        The range is floored there (m); 0: no floor.
 
     Returns
     -------

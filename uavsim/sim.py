@@ -44,6 +44,8 @@ from .truth import Truth
 from .uav import make_policy
 from .world.routes import GoalField
 
+__all__ = ["Simulation", "StepInfo", "target_bearings"]  # the public interface (docs/api.md renders each)
+
 STAGES = ("guidance", "filter", "planner", "truth", "total")  # seconds per step; "planner": the policy's act
 MIN_HALF = 0.01  # a half of the particle cloud with less weight than this moves by the mean's plan
 

@@ -23,6 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["bearing_gradients", "constrained", "crlb", "rmse_bounds"]  # the public interface (docs/api.md)
+
 
 def bearing_gradients(truth: np.ndarray, observer: np.ndarray) -> np.ndarray:
     """``d beta / d x`` (K, 4) for true states ``(K, 4)`` and observer positions ``(K, 2)``."""

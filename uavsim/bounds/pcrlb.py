@@ -128,6 +128,8 @@ import numpy as np
 from ..sensing import SIGMA_MAX_DEG, MeasurementModel
 from ..targets import HORIZONTAL, Dynamics
 
+__all__ = ["Bound", "jackknife_se", "pcrlb", "pcrlb_for_trials", "pcrlb_planned", "pcrlb_step"]  # docs/api.md
+
 MAX_SIGMA = np.radians(SIGMA_MAX_DEG)  # pi / 8: the wrapped tail 2 Phi(-pi / sigma) of the noise is < 1e-15
 _SQRT_2PI = np.sqrt(2.0 * np.pi)
 POS = slice(0, 2)  # (x, y) in the state [x, y, z, vx, vy, vz]
@@ -326,12 +328,18 @@ def pcrlb_for_trials(truth: np.ndarray, observers: np.ndarray, dynamics: Dynamic
 
     Parameters
     ----------
-    truth : (trials, T, M, 6) or (T, M, 6) true states at steps 1..T (``StepInfo.truth``
-    of ``Simulation.step``, not the reset's step 0).
-    observers : (trials, T, S, 3) or (T, S, 3) sensor positions at those steps
-    (``StepInfo.observers``; S = 0, the no-sensor baseline, gives the prediction alone).
-    dynamics : Eq. (1)-(2) (``a`` and ``q`` are used); cov0 : (6, 6) or (M, 6, 6) priors
-    ``Sigma_0``; sensor : the sensor of those observers (its IRF is computed once, cached).
+    truth : (trials, T, M, 6) or (T, M, 6)
+        True states at steps 1..T (``StepInfo.truth`` of ``Simulation.step``, not the
+        reset's step 0).
+    observers : (trials, T, S, 3) or (T, S, 3)
+        Sensor positions at those steps (``StepInfo.observers``; S = 0, the no-sensor
+        baseline, gives the prediction alone).
+    dynamics : Dynamics
+        Eq. (1)-(2) (``a`` and ``q`` are used).
+    cov0 : (6, 6) or (M, 6, 6)
+        The priors ``Sigma_0``.
+    sensor : MeasurementModel
+        The sensor of those observers (its IRF is computed once, cached).
 
     Returns
     -------
