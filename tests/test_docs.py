@@ -75,6 +75,26 @@ def test_the_docs_extra_brings_what_the_gallery_imports():
                 assert package in docs, f"{path.name} imports {module}: add {package} to the docs extra"
 
 
+def test_every_results_page_shows_a_figure_drawn_from_its_data():
+    """Each results page (and the cities page) shows at least one figure of
+    ``docs/hooks/figures.py``, which draws it from docs/data/*.json when the site is built
+    (the strict build in CI stops on a figure whose data is missing); every figure a page
+    names is in that hook's registry, and every registered figure is shown somewhere."""
+    import re
+
+    registry = set(re.findall(r'^    "([a-z0-9-]+)": \(\(', (ROOT / "docs" / "hooks" / "figures.py").read_text(), re.M))
+    assert len(registry) >= 12
+    shown, bare = set(), []
+    for page in sorted((ROOT / "docs" / "results").glob("*.md")) + [ROOT / "docs" / "guidance-cities.md"]:
+        names = re.findall(r"!\[[^\]]*\]\((?:\.\./)?figures/([a-z0-9-]+)\.png\)", page.read_text())
+        if not names:
+            bare.append(page.name)
+        shown |= set(names)
+    assert bare == [], f"results pages without a figure: {bare}"
+    assert shown <= registry, f"figures not in the hook: {shown - registry}"
+    assert registry <= shown, f"figures drawn but shown nowhere: {registry - shown}"
+
+
 API_MODULES = ("uavsim.estimators", "uavsim.sim", "uavsim.mission", "uavsim.config", "uavsim.world", "uavsim.campaign",
                "uavsim.env", "uavsim.bounds.pcrlb", "uavsim.bounds.crlb", "uavsim.sensing")
 
