@@ -417,9 +417,11 @@ class World:
 
         Two phases, so that a town costs what the obstacles near each segment cost: only
         the obstacles whose bounding boxes meet the box around every end are considered,
-        and of those only the pairs where the segment, over the part of it at the
-        obstacle's heights, passes within the circle holding its footprint are clipped
-        exactly (Cyrus-Beck on the footprint's sides, as :func:`segments_hit_polytopes`)."""
+        nearest the ``p1`` ends first (where a target's line of sight is most often
+        blocked), one at a time against the segments no earlier one blocked; of those,
+        only the segments that, over their part at the obstacle's heights, pass within the
+        circle holding its footprint are clipped exactly (Cyrus-Beck on the footprint's
+        sides, as :func:`segments_hit_polytopes`)."""
         p0, p1 = np.asarray(p0, dtype=float), np.asarray(p1, dtype=float)
         shape = np.broadcast_shapes(p0.shape, p1.shape)[:-1]
         if self.n_obstacles == 0 or 0 in shape:
@@ -427,40 +429,47 @@ class World:
         ends = (p0.reshape(-1, 3), p1.reshape(-1, 3))
         lo, hi = np.minimum(*(e.min(axis=0) for e in ends)), np.maximum(*(e.max(axis=0) for e in ends))
         near = np.flatnonzero(np.all((self.obstacle_lo <= hi) & (self.obstacle_hi >= lo), axis=1))
-        out = np.zeros(int(np.prod(shape)), dtype=bool)
-        if not len(near):
-            return out.reshape(shape)
-        a = np.broadcast_to(p0, shape + (3,)).reshape(-1, 3)
-        b = np.broadcast_to(p1, shape + (3,)).reshape(-1, 3)
         centre, radius = self._circles
-        # the part t in [t_lo, t_hi] of each segment at an obstacle's heights ...
-        az, dz = a[:, 2:3], b[:, 2:3] - a[:, 2:3]  # (P, 1)
+        near = near[np.argsort(np.hypot(*(centre[near] - ends[1][:, :2].mean(axis=0)).T))]
+        out = np.zeros(int(np.prod(shape)), dtype=bool)
+        a = np.broadcast_to(p0, shape + (3,)).reshape(-1, 3)
+        d = np.broadcast_to(p1, shape + (3,)).reshape(-1, 3) - a
+        live = np.arange(len(a))  # the segments no obstacle has blocked yet
+        for o in near:  # the obstacles near these segments: a handful in a town
+            q, s_lo, s_hi = self._clip(o, a[live], d[live])
+            out[live[q[s_lo <= s_hi]]] = True
+            live = np.delete(live, q[s_lo <= s_hi])
+            if not len(live):
+                break
+        return out.reshape(shape)
+
+    def _clip(self, o: int, a: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Segments ``a + t d`` (``(P, 3)`` each), ``t`` in [0, 1], against obstacle ``o``:
+        the indices ``q`` of those that pass within its circle over their part at its
+        heights, and for them the interval ``[s_lo, s_hi]`` of ``t`` inside it (empty where
+        ``s_lo > s_hi``)."""
+        centre, radius = self._circles
+        az, dz = a[:, 2], d[:, 2]
+        z_lo, z_hi = self.obstacle_lo[o, 2], self.obstacle_hi[o, 2]
         with np.errstate(divide="ignore", invalid="ignore"):
-            z0, z1 = (self.obstacle_lo[near, 2] - az) / dz, (self.obstacle_hi[near, 2] - az) / dz  # (P, O)
+            z0, z1 = (z_lo - az) / dz, (z_hi - az) / dz
         flat = dz == 0
-        inside = (self.obstacle_lo[near, 2] <= az) & (az <= self.obstacle_hi[near, 2])
-        t_lo = np.where(flat, np.where(inside, 0.0, 2.0), np.maximum(np.minimum(z0, z1), 0.0))
+        t_lo = np.where(flat, np.where((z_lo <= az) & (az <= z_hi), 0.0, 2.0), np.maximum(np.minimum(z0, z1), 0.0))
         t_hi = np.where(flat, 1.0, np.minimum(np.maximum(z0, z1), 1.0))
-        # ... whose ground track passes within the obstacle's circle
-        dx, dy = b[:, :1] - a[:, :1], b[:, 1:2] - a[:, 1:2]
-        rx, ry = centre[near, 0] - a[:, :1], centre[near, 1] - a[:, 1:2]  # (P, O)
+        dx, dy = d[:, 0], d[:, 1]
+        rx, ry = centre[o, 0] - a[:, 0], centre[o, 1] - a[:, 1]
         dd = dx * dx + dy * dy
         t = np.clip((rx * dx + ry * dy) / np.where(dd > 0, dd, 1.0), t_lo, t_hi)
-        rx -= t * dx
-        ry -= t * dy
-        seg, obs = np.nonzero((rx * rx + ry * ry <= radius[near] ** 2) & (t_lo <= t_hi))
-        if len(seg):  # Cyrus-Beck on the ground against the footprint's sides, within [t_lo, t_hi]
-            fp, k = self.footprints, near[obs]
-            nx, ny = fp.normals[k, :, 0], fp.normals[k, :, 1]  # (Q, F); padding repeats a side
-            slack = fp.offsets[k] - (nx * a[seg, :1] + ny * a[seg, 1:2])
-            rate = nx * dx[seg] + ny * dy[seg]
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ratio = slack / rate
-            s_hi = np.minimum(np.min(np.where(rate > 0, ratio, np.inf), axis=1), t_hi[seg, obs])
-            s_lo = np.maximum(np.max(np.where(rate < 0, ratio, -np.inf), axis=1), t_lo[seg, obs])
-            hit = np.all((rate != 0) | (slack >= 0), axis=1) & (s_lo <= s_hi)
-            out[seg[hit]] = True
-        return out.reshape(shape)
+        q = np.flatnonzero(((rx - t * dx) ** 2 + (ry - t * dy) ** 2 <= radius[o] ** 2) & (t_lo <= t_hi))
+        nx, ny = self.footprints.normals[o, :, 0], self.footprints.normals[o, :, 1]  # (F,); padding repeats a side
+        slack = self.footprints.offsets[o] - (nx * a[q, :1] + ny * a[q, 1:2])  # (Q, F)
+        rate = nx * d[q, :1] + ny * d[q, 1:2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            ratio = slack / rate
+        s_hi = np.minimum(np.min(np.where(rate > 0, ratio, np.inf), axis=1), t_hi[q])
+        s_lo = np.maximum(np.max(np.where(rate < 0, ratio, -np.inf), axis=1), t_lo[q])
+        parallel_out = np.any((rate == 0) & (slack < 0), axis=1)  # parallel to a side, outside it
+        return q, np.where(parallel_out, np.inf, s_lo), s_hi
 
     @cached_property
     def _circles(self) -> tuple[np.ndarray, np.ndarray]:
