@@ -370,6 +370,42 @@ def tables_bo_standard(data: dict | None) -> dict[str, str]:
             + f"\n\n{f['runs']} runs a scenario, seed {f['seed']}; the last scan. " + provenance(data)}
 
 
+def tables_divergence(data: dict | None) -> dict[str, str]:
+    """Silent divergence on weak geometry (``divergence.py``): per method the runs that
+    converged, were announced, ended far off, and of those the covered and the silent."""
+    if data is None:
+        return {}
+    f = data["figures"]
+    rows = [[name, f"{r['converged']}", f"{r['announced']}", f"{r['far']}", f"{r['far_covered']}", f"{r['far_silent']}",
+             "-" if r["median_error_converged_m"] is None else f"{r['median_error_converged_m']:.0f}"]
+            for name, r in f["methods"].items()]
+    return {"divergence": md(["method", "converged", "announced", f"beyond {f['far_m']:.0e} m", "of those, covered",
+                              "of those, silent", "median error, converged (m)"], rows)
+            + f"\n\n[Oh2021] target {f['target']}, {f['sigma_deg']} deg, {f['scans']} scans, {f['runs']} runs, seed "
+              f"{f['seed']}. " + provenance(data)}
+
+
+def tables_bound_check(data: dict | None) -> dict[str, str]:
+    """The PCRLB against the RMSE target by target on generated worlds (``bound_check.py``)."""
+    if data is None:
+        return {}
+    f = data["figures"]
+    rows = []
+    for seed, w in f["worlds"].items():
+        low = min(w["targets"], key=lambda t: t["margin_over_se"])
+        rows.append([seed, f"{w['time_avg_rmse']:.2f}", f"{w['time_avg_pcrlb']:.2f} +- {w['time_avg_pcrlb_se']:.2f}",
+                     f"{w['baseline_ratio']:.3f}", f"{min(t['margin'] for t in w['targets']):.2f}",
+                     f"{low['margin_over_se']:.2f} ({low['name']})",
+                     f"{min(t['start_acceptance'] for t in w['targets']):.2f}",
+                     str(sum(bool(t["below_2se"]) for t in w["targets"]))])
+    t = f["totals"]
+    return {"bound-check": md(["world seed", "RMSE (m)", "PCRLB (m) +- s.e.", "RMSE / no information",
+                               "smallest target margin (m)", "smallest margin / s.e.", "least start acceptance",
+                               "targets beaten beyond 2 s.e."], rows)
+            + f"\n\n{t['target_worlds']} target-worlds, {data['settings']['trials']} trials a world, time averages; "
+              f"beaten beyond 2 s.e.: {t['beaten_beyond_2se']}. " + provenance(data)}
+
+
 def pages() -> dict[Path, dict[str, str]]:
     studies = _load(DATA / "tma-studies.json")
     cities = {f"cities-{k}": _load(DATA / f"{f}.json") for k, f in (("scaling", "scaling"),
@@ -377,8 +413,9 @@ def pages() -> dict[Path, dict[str, str]]:
     return {DOCS / "results" / "huang2021.md": tables_huang2021(studies),
             DOCS / "results" / "li2022.md": tables_li2022(studies),
             DOCS / "results" / "oliva2021.md": tables_oliva2021(studies),
-            DOCS / "results" / "oh2021.md": tables_oh2021(_load(DATA / "oh2021-grid.json"),
-                                                       _load(DATA / "oh2021-speed.json")),
+            DOCS / "results" / "oh2021.md": {**tables_oh2021(_load(DATA / "oh2021-grid.json"),
+                                                         _load(DATA / "oh2021-speed.json")),
+                                           **tables_divergence(_load(DATA / "divergence.json"))},
             DOCS / "results" / "speed.md": {**tables_startup(_load(DATA / "startup.json")),
                                             **tables_speed(_load(DATA / "filter-step.json"),
                                                            _load(DATA / "filter-step-alone.json"),
@@ -389,7 +426,8 @@ def pages() -> dict[Path, dict[str, str]]:
             DOCS / "guidance-cities.md": {**tables_cities(cities, _load(DATA / "gcs-bound.json")),
                                           **tables_city_targets(cities["cities-scaling"],
                                                                 cities["cities-first-plans"], list(cities.values()))},
-            DOCS / "results" / "worlds.md": tables_worlds(_load(DATA / "worlds.json")),
+            DOCS / "results" / "worlds.md": {**tables_worlds(_load(DATA / "worlds.json")),
+                                              **tables_bound_check(_load(DATA / "bound-check.json"))},
             DOCS / "results" / "towns.md": tables_towns(_load(DATA / "osm-import.json"), _load(DATA / "budget.json"),
                                                         _load(DATA / "plan-of-work.json"), _load(DATA / "towns.json"),
                                                         _load(DATA / "tracking.json"),
