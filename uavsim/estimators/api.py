@@ -428,12 +428,18 @@ class ConstrainedMLE(Params):
 
         if not hasattr(self, "x_"):
             raise NotFittedError("this ConstrainedMLE is not fitted: call fit before predict")
-        t = np.asarray(times, dtype=float)
-        if t.ndim != 1 or len(t) == 0 or not np.isfinite(t).all():
-            raise ValueError(f"times must be a non-empty 1-D array of finite seconds; got shape {t.shape}")
+        t = prediction_times(times)
         pos = polynomial_basis(t, self.order, t_ref=self.t0_)  # (K, 2, n)
         vel = np.pad(polynomial_basis(t, self.order - 1, t_ref=self.t0_), ((0, 0), (0, 0), (2, 0)))
         return track(np.concatenate([pos, vel], axis=1), self.x_, self.cov_, return_cov)
+
+
+def prediction_times(times) -> np.ndarray:
+    """``times`` as a non-empty 1-D float array of finite seconds (any order), for ``predict``."""
+    t = np.asarray(times, dtype=float)
+    if t.ndim != 1 or len(t) == 0 or not np.isfinite(t).all():
+        raise ValueError(f"times must be a non-empty 1-D array of finite seconds; got shape {t.shape}")
+    return t
 
 
 def track(m, x, cov, return_cov: bool):

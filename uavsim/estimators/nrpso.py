@@ -389,9 +389,7 @@ class BatchTMA(api.Params):
         carried along the track: ``F cov_ F^T`` with ``F = [[I, dt I], [0, I]]``."""
         if not hasattr(self, "x_"):
             raise api.NotFittedError("this BatchTMA is not fitted: call fit before predict")
-        t = np.asarray(times, dtype=float)
-        if t.ndim != 1 or len(t) == 0 or not np.isfinite(t).all():
-            raise ValueError(f"times must be a non-empty 1-D array of finite seconds; got shape {t.shape}")
+        t = api.prediction_times(times)
         m = np.zeros((len(t), 4, 4))
         m[:] = np.eye(4)
         m[:, [0, 1], [2, 3]] = (t - self.t0_)[:, None]
