@@ -55,7 +55,9 @@ baselines written here:
 
 Reported per method: the final scan's position RMSE, its ratio to the bound's, the share
 of lost tracks (a final error above a quarter of the target's true range), the mean NEES
-of the final position (dof 2) where the method has a covariance, and the seconds per run.
+of the final position (dof 2) where the method has a covariance, the seconds per run, and
+for the recursive methods the position RMSE after every scan (the docs' curves; a batch
+fit uses every scan at once, so it has only the last).
 """
 
 from __future__ import annotations
@@ -171,11 +173,13 @@ def bound(sc: Scenario, truth: np.ndarray) -> np.ndarray:
     return out
 
 
-# ---------------------------------------------------------------- the methods: (R, 4) final state and covariance
+# ------------------------------------------- the methods: (R, 4) final state and covariance, (R, K, 2) positions
 def control(sc, bearings, m0, p0):
     f = cv_model(DT, 0.0)[0]
     fk = np.linalg.matrix_power(f, SCANS - 1)
-    return np.broadcast_to(fk @ m0, (len(bearings), 4)), np.broadcast_to(fk @ p0 @ fk.T, (len(bearings), 4, 4))
+    track = np.stack([np.linalg.matrix_power(f, k) @ m0 for k in range(SCANS)])[None, :, :2]
+    return (np.broadcast_to(fk @ m0, (len(bearings), 4)), np.broadcast_to(fk @ p0 @ fk.T, (len(bearings), 4, 4)),
+            np.broadcast_to(track, (len(bearings), SCANS, 2)))
 
 
 def plkf(kind):
@@ -183,10 +187,11 @@ def plkf(kind):
         f, q = cv_model(DT, Q_PSD)
         kf = PseudoLinearKF(kind, f, q, np.tile(m0, (len(bearings), 1)), p0)
         east = convert(bearings, "north-cw", "east-ccw")
-        obs = ownship()
+        obs, track = ownship(), []
         for k in range(SCANS):
             kf.step(east[:, k], obs[k], np.radians(sc.sigma_deg))
-        return kf.x, kf.p
+            track.append(kf.x[:, :2])
+        return kf.x, kf.p, np.stack(track, 1)
     return method
 
 
@@ -194,12 +199,13 @@ def plmmse(sc, bearings, m0, p0):
     f, q = cv_model(DT, Q_PSD)
     noise = GaussianMixture((1.0,), (np.radians(sc.sigma_deg) ** 2,))
     x, p = np.tile(m0, (len(bearings), 1)), np.tile(p0, (len(bearings), 1, 1))
-    east, obs = convert(bearings, "north-cw", "east-ccw"), ownship()
+    east, obs, track = convert(bearings, "north-cw", "east-ccw"), ownship(), []
     for k in range(SCANS):
         if k:
             x, p = plkf_predict(x, p, f, q)
         x, p, _ = PLMMSE_UPDATES["pl-mmse"](x, p, east[:, k], obs[k], noise)
-    return x, p
+        track.append(x[:, :2])
+    return x, p, np.stack(track, 1)
 
 
 def batch(method_name):
@@ -212,7 +218,7 @@ def batch(method_name):
                            area=_area(sc)).fit(times, bearings, ownship())
         f = cv_model(DT, 0.0)[0]
         fk = np.linalg.matrix_power(f, SCANS - 1)
-        return est.x_ @ fk.T, fk @ est.cov_ @ fk.T
+        return est.x_ @ fk.T, fk @ est.cov_ @ fk.T, None  # a batch fit of all scans: no estimate per scan
     return method
 
 
@@ -248,12 +254,13 @@ def ckf(sc, bearings, m0, p0):
     f, q = cv_model(DT, Q_PSD)
     r = len(bearings)
     x, p = np.tile(m0, (r, 1)), np.tile(p0, (r, 1, 1))
-    obs, var = ownship(), np.radians(sc.sigma_deg) ** 2
+    obs, var, track = ownship(), np.radians(sc.sigma_deg) ** 2, []
     for k in range(SCANS):
         if k:
             x, p = plkf_predict(x, p, f, q)
         x, p, _, _ = ckf_update(x, p, bearings[:, k], obs[k], var)
-    return x, p
+        track.append(x[:, :2])
+    return x, p, np.stack(track, 1)
 
 
 def mixture(w, x, p):
@@ -309,15 +316,17 @@ def rp_ekf(sc, bearings, m0, p0):
     w0, x0, pp0 = range_bank(sc, m0, p0)
     logw = np.tile(np.log(w0), (r, 1))  # (R, M)
     x, p = np.tile(x0, (r, 1)), np.tile(pp0, (r, 1, 1))  # (R M, 4), (R M, 4, 4), run-major
-    obs, var = ownship(), np.radians(sc.sigma_deg) ** 2
+    obs, var, track = ownship(), np.radians(sc.sigma_deg) ** 2, []
     for k in range(SCANS):
         if k:
             x, p = plkf_predict(x, p, f, q)
         x, p, nu, s = ekf_update(x, p, bearings[:, k].repeat(BANK), obs[k], var)
         logw += log_likelihood(nu, s).reshape(r, BANK)
         logw -= logw.max(1, keepdims=True)
-    w = np.exp(logw)
-    return mixture(w / w.sum(1, keepdims=True), x.reshape(r, BANK, 4), p.reshape(r, BANK, 4, 4))
+        w = np.exp(logw)
+        w /= w.sum(1, keepdims=True)
+        track.append(np.einsum("rm,rmi->ri", w, x.reshape(r, BANK, 4)[..., :2]))
+    return (*mixture(w, x.reshape(r, BANK, 4), p.reshape(r, BANK, 4, 4)), np.stack(track, 1))
 
 
 def imm(sc, bearings, m0, p0):
@@ -328,7 +337,7 @@ def imm(sc, bearings, m0, p0):
     r, m = len(bearings), len(q)
     mu = np.full((r, m), 1.0 / m)  # (R, M) the mode probabilities
     x, p = np.tile(m0, (r, m, 1)), np.tile(p0, (r, m, 1, 1))  # (R, M, 4), (R, M, 4, 4)
-    obs, var = ownship(), np.radians(sc.sigma_deg) ** 2
+    obs, var, track = ownship(), np.radians(sc.sigma_deg) ** 2, []
     for k in range(SCANS):
         if k:
             c = mu @ SWITCH  # (R, M) the predicted mode probabilities
@@ -341,7 +350,8 @@ def imm(sc, bearings, m0, p0):
         logw = np.log(mu) + log_likelihood(nu, s).reshape(r, m)
         mu = np.exp(logw - logw.max(1, keepdims=True))
         mu /= mu.sum(1, keepdims=True)
-    return mixture(mu, x, p)
+        track.append(np.einsum("rm,rmi->ri", mu, x[..., :2]))
+    return (*mixture(mu, x, p), np.stack(track, 1))
 
 
 def weighted_moments(x, w):
@@ -373,7 +383,7 @@ def rpf(sc, bearings, m0, p0, seed=0):
     chol = np.linalg.cholesky(p0).astype(f32)
     x = np.matmul(chol, rng.standard_normal((r, 4, n), dtype=f32)) + m0.astype(f32)[:, None]
     logw = np.zeros((r, n), f32)
-    obs, half_info = ownship().astype(f32), f32(0.5 / np.radians(sc.sigma_deg) ** 2)
+    obs, half_info, track = ownship().astype(f32), f32(0.5 / np.radians(sc.sigma_deg) ** 2), []
     sin_z, cos_z = np.sin(bearings).astype(f32), np.cos(bearings).astype(f32)  # (R, K)
     h_opt = f32((4.0 / (n * 6.0)) ** (1.0 / 8.0))  # the optimal Gaussian kernel width for n = 4 dimensions
     for k in range(SCANS):
@@ -386,6 +396,7 @@ def rpf(sc, bearings, m0, p0, seed=0):
         logw -= logw.max(1, keepdims=True)
         w = np.exp(logw)
         w /= w.sum(1, keepdims=True)
+        track.append(np.matmul(x[:, :2], w[:, :, None])[..., 0])
         low = np.flatnonzero(1.0 / (w * w).sum(1) < n / 2)  # the runs to resample
         if len(low):
             _, cov = weighted_moments(x[low], w[low])
@@ -395,7 +406,7 @@ def rpf(sc, bearings, m0, p0, seed=0):
             logw[low] = 0.0
             w[low] = 1.0 / n
     mean, cov = weighted_moments(x, w)
-    return mean.astype(np.float64), cov.astype(np.float64)
+    return mean.astype(np.float64), cov.astype(np.float64), np.stack(track, 1).astype(np.float64)
 
 
 METHODS = {"no-update control": control, "IV-PLKF": plkf("iv-plkf"), "BC-PLKF": plkf("bc-plkf"),
@@ -413,7 +424,7 @@ def study(sc: Scenario, runs: int, seed: int) -> dict:
     for name, method in METHODS.items():
         t0 = time.perf_counter()
         with np.errstate(all="ignore"):
-            x, p = method(sc, bearings, m0, p0)
+            x, p, track = method(sc, bearings, m0, p0)
         seconds = time.perf_counter() - t0
         err = np.hypot(*(x[:, :2] - final[:, :2]).T)
         kept = np.isfinite(err) & np.isfinite(p).all(axis=(1, 2))
@@ -424,7 +435,9 @@ def study(sc: Scenario, runs: int, seed: int) -> dict:
             "rmse_m": float(np.sqrt(np.mean(err[kept] ** 2))), "ratio": float(np.sqrt(np.mean(err[kept] ** 2)) / b[-1]),
             "lost": float(np.mean(err > LOST * rng_final)), "nonfinite": int((~kept).sum()),
             "median_m": float(np.median(err)), "nees_pos": float(np.mean(nees)),
-            "seconds_per_run": seconds / runs}
+            "seconds_per_run": seconds / runs,
+            "rmse_per_scan_m": None if track is None else  # the runs kept at the last scan
+            np.sqrt(np.mean(np.sum((track[kept] - truth[kept, :, :2]) ** 2, axis=-1), axis=0)).tolist()}
     return out
 
 
