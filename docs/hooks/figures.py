@@ -373,6 +373,23 @@ def bo_standard_ratio(d):
     return fig
 
 
+def bo_standard_curves(d):
+    """Position RMSE after every scan of the recursive methods, with the Bayesian CRLB, per scenario."""
+    sc = d["figures"]["scenarios"]
+    fig, axes = new(1, len(sc), size=TALL, sharey=True)
+    for ax, (name, s) in zip(np.atleast_1d(axes), sc.items()):
+        for method, m in s["methods"].items():
+            if m["rmse_per_scan_m"] is not None and not method.startswith("UB-"):
+                ax.plot(np.arange(1, len(m["rmse_per_scan_m"]) + 1), m["rmse_per_scan_m"], label=method,
+                        ls="--" if method == "no-update control" else "-")
+        ax.plot(np.arange(1, len(s["bound_m"]) + 1), s["bound_m"], "k:", label="Bayesian CRLB")
+        ax.set(title=name, xlabel="scan (1 min)", yscale="log")
+    np.atleast_1d(axes)[0].set_ylabel("position RMSE (m)")
+    log_axis(np.atleast_1d(axes)[0].yaxis)
+    fig.legend(*np.atleast_1d(axes)[0].get_legend_handles_labels(), loc="outside lower center", ncols=3)
+    return fig
+
+
 def _city_cells(d, setting=None):
     return [r for r in d["summary"] if r["obstacles"] != "all" and setting in (None, r["setting"])]
 
@@ -432,6 +449,7 @@ FIGURES = {
     "oliva2021-errors": (("tma-studies.json",), oliva2021_errors),
     "oliva2021-covariance": (("tma-studies.json",), oliva2021_covariance),
     "bo-standard-ratio": (("bo-standard.json",), bo_standard_ratio),
+    "bo-standard-curves": (("bo-standard.json",), bo_standard_curves),
     "cities-scaling": (("scaling.json",), cities_scaling),
     "cities-in-goal": (("scaling-first-plans.json",), cities_in_goal),
 }
