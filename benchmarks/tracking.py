@@ -13,7 +13,9 @@ detection at 10 nats).  A variant is a UAV policy (``optimized``, Eq. 12-13; ``l
 optimized policy with [Papaioannou2023]'s filter as published (``filter.loss_nats = 0``,
 ``filter.plan_clusters = 1``, one process noise Q); ``stochastic-truth``: the optimized
 policy against true targets that re-plan and take the process noise Q the filter assumes
-(the control for consistency: the planned truth takes no noise at all); ``one-level`` and
+(the control for consistency: the planned truth takes no noise at all); ``budget-0.1``,
+``budget-0.25``: every re-plan's budget (the truth's and the filter's) at 0.1 or 0.25
+reference seconds instead of the mission's 1.0, for speed; ``one-level`` and
 ``no-loss-detection``: the optimized policy with the mission's filter less one of its
 additions (one process noise Q for every particle; no track-loss detection).  Every variant runs the
 same trials (trial k seeded from ``SeedSequence(seed).spawn(trials)[k]``) beside the
@@ -53,16 +55,21 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "line-of-sight": ("optimized", {"sensor.line_of_sight": True}),  # for generated worlds, whose missions have none
     "low-noise": ("optimized", {"filter.noise_scales": [0.03, 0.3], "filter.scale_switch": 0.02}),  # NEES against RMSE
     "lower-noise": ("optimized", {"filter.noise_scales": [0.01, 0.3]}),
+    "budget-0.1": ("optimized", {"guidance.replan_budget_s": 0.1}),  # every re-plan's budget, truth's too: speed
+    "budget-0.25": ("optimized", {"guidance.replan_budget_s": 0.25}),
 }
+SHARED = ("truth", "guidance.")  # overrides the baseline takes too: they change the truths, not the filter
 
 
 def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, workers: int, resume: bool) -> dict:
     """One variant's campaign summary with the no-information baseline of the same trials
-    (``OUT/baseline``, or ``OUT/baseline-stochastic`` for a stochastic truth)."""
+    (``OUT/baseline``; a variant that changes the truth, its kind or its guidance, has its
+    own, named by the values: ``OUT/baseline-stochastic``, ``OUT/baseline-0.1``)."""
     planner, extra = VARIANTS.get(variant, (variant, {}))
     m = load_mission(path, {"steps": steps, "trials": trials, **extra})
-    base = load_mission(path, {"steps": steps, "trials": trials, **({"truth": m.truth} if "truth" in extra else {})})
-    folder = "baseline" if base.truth == "planned" else f"baseline-{base.truth}"
+    shared = {k: v for k, v in extra.items() if k.startswith(SHARED)}
+    base = load_mission(path, {"steps": steps, "trials": trials, **shared})
+    folder = "-".join(["baseline", *map(str, shared.values())])  # baseline, baseline-stochastic, baseline-0.1
     return with_baseline(run_campaign(m, planner, out / variant, workers=workers, resume=resume),
                          run_campaign(base, "baseline", out / folder, workers=workers, resume=resume))
 
