@@ -315,12 +315,18 @@ def tables_memory(data: dict | None) -> dict[str, str]:
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None,
                  runs: dict | None, tracked: dict | None = None, sight: dict | None = None,
-                 sight_cost: dict | None = None) -> dict[str, str]:
+                 sight_cost: dict | None = None, budget_runs: dict | None = None) -> dict[str, str]:
     """Real and generated towns: the importer's cover (``osm_import.py``), budgets against
     the wall clock (``budget.py``), the plan of work's CPU (``resources.py``), guidance
     and the closed loop in towns (``towns.py``), tracking there (``tracking.py``), with
-    and without line of sight (``tracking.py``, ``line_of_sight.py``)."""
+    and without line of sight (``tracking.py``, ``line_of_sight.py``), and with smaller
+    re-plan budgets (``tracking.py``)."""
     out = {}
+    if budget_runs is not None:
+        s = budget_runs["settings"]
+        out["towns-tracking-budget"] = (tracking.table(budget_runs["rows"]) + f"\n\n{s['trials']} trials of "
+                                        f"{s['steps']} steps a variant, the same trials in every row of a world. "
+                                        + provenance(budget_runs))
     if tracked is not None:
         s = tracked["settings"]
         out["towns-tracking"] = (tracking.table(tracked["rows"]) + f"\n\n{s['trials']} trials of {s['steps']} steps "
@@ -432,7 +438,8 @@ def pages() -> dict[Path, dict[str, str]]:
                                                         _load(DATA / "plan-of-work.json"), _load(DATA / "towns.json"),
                                                         _load(DATA / "tracking.json"),
                                                         _load(DATA / "tracking-line-of-sight.json"),
-                                                        _load(DATA / "line-of-sight.json")),
+                                                        _load(DATA / "line-of-sight.json"),
+                                                        _load(DATA / "tracking-budget.json")),
             DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
                                                 **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
                                                                    "lookahead-clusters2")},
