@@ -429,7 +429,7 @@ class World:
         ends = (p0.reshape(-1, 3), p1.reshape(-1, 3))
         lo, hi = np.minimum(*(e.min(axis=0) for e in ends)), np.maximum(*(e.max(axis=0) for e in ends))
         near = np.flatnonzero(np.all((self.obstacle_lo <= hi) & (self.obstacle_hi >= lo), axis=1))
-        centre, radius = self._circles
+        centre = self._circles[0]
         near = near[np.argsort(np.hypot(*(centre[near] - ends[1][:, :2].mean(axis=0)).T))]
         out = np.zeros(int(np.prod(shape)), dtype=bool)
         a = np.broadcast_to(p0, shape + (3,)).reshape(-1, 3)
@@ -461,6 +461,7 @@ class World:
         dd = dx * dx + dy * dy
         t = np.clip((rx * dx + ry * dy) / np.where(dd > 0, dd, 1.0), t_lo, t_hi)
         q = np.flatnonzero(((rx - t * dx) ** 2 + (ry - t * dy) ** 2 <= radius[o] ** 2) & (t_lo <= t_hi))
+        # Cyrus-Beck on the ground against the footprint's sides, within [t_lo, t_hi]
         nx, ny = self.footprints.normals[o, :, 0], self.footprints.normals[o, :, 1]  # (F,); padding repeats a side
         slack = self.footprints.offsets[o] - (nx * a[q, :1] + ny * a[q, 1:2])  # (Q, F)
         rate = nx * d[q, :1] + ny * d[q, 1:2]
