@@ -321,20 +321,10 @@ def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | 
     and the closed loop in towns (``towns.py``), tracking there (``tracking.py``), with
     and without line of sight (``tracking.py``, ``line_of_sight.py``), and with smaller
     re-plan budgets (``tracking.py``)."""
-    out = {}
-    if budget_runs is not None:
-        s = budget_runs["settings"]
-        out["towns-tracking-budget"] = (tracking.table(budget_runs["rows"]) + f"\n\n{s['trials']} trials of "
-                                        f"{s['steps']} steps a variant, the same trials in every row of a world. "
-                                        + provenance(budget_runs))
-    if tracked is not None:
-        s = tracked["settings"]
-        out["towns-tracking"] = (tracking.table(tracked["rows"]) + f"\n\n{s['trials']} trials of {s['steps']} steps "
-                                 "a variant, the same trials in every row of a world. " + provenance(tracked))
-    if sight is not None:
-        s = sight["settings"]
-        out["towns-line-of-sight"] = (tracking.table(sight["rows"]) + f"\n\n{s['trials']} trials of {s['steps']} "
-                                      "steps a variant, the same trials in every row of a world. " + provenance(sight))
+    out = {name: tracking.table(data["rows"]) + f"\n\n{data['settings']['trials']} trials of "
+           f"{data['settings']['steps']} steps a variant, the same trials in every row of a world. " + provenance(data)
+           for name, data in (("towns-tracking", tracked), ("towns-line-of-sight", sight),
+                              ("towns-tracking-budget", budget_runs)) if data is not None}
     if sight_cost is not None:
         rows = [[r["world"], r["obstacles"], f"{r['targets']} x {r['particles']}", r["candidates"],
                  f"{r['decide_ms_off']:.1f}", f"{r['decide_ms_on']:.1f}", f"{r['decide_ratio']:.2f}",
