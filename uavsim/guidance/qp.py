@@ -187,35 +187,34 @@ class FixedFaceQP:
             if not np.array_equal(lo[k.eq], hi[k.eq]):
                 return False, None  # an equality row given as a range: not the program condensed
             ctx = self._context = k.context(lo, hi)
-        rows, rlo, rhi, a_all = k.rows_for(y, relax, ctx, needed)
-        if np.any(rlo > rhi):
+        on = k.faces_on(y, relax, needed)
+        f_lo, f_hi = ctx.a_lo[on], ctx.a_hi[on]
+        if ctx.crossed or np.any(f_lo > f_hi):
             return False, None
-        lazy = k.lazy_rows(rows)  # rows_for keeps every general row but avoidance: all of them
-        use = np.ones(len(rows), bool)
-        use[lazy] = False if speed is None else np.isin(rows[lazy], speed)
+        faces = (len(k.a_w) + on, k.face_rows(on), f_lo, f_hi)
+        use = np.zeros(len(ctx.lazy_ids), bool) if speed is None else np.isin(ctx.lazy_ids, speed)
         working = np.zeros(0, int), np.zeros(0, np.intc)
         for attempt in range(LAZY_ROUNDS + 1):
             if attempt == LAZY_ROUNDS:
                 use[:] = True
-            sub = rows[use]
-            a = a_all[use]
-            flag, w, lam, working, iterations = _daqp(k, a, sub, rlo[use], rhi[use], ctx, working)
+            sub, a, rlo, rhi = ctx.rows(use, *faces)
+            flag, w, lam, working, iterations = _daqp(k, a, sub, rlo, rhi, ctx, working)
             self.work += WORK_CALL_S + WORK_ROW_S * len(sub) + WORK_ITERATION_S * iterations
             if flag != DAQP_OPTIMAL:
                 return flag == DAQP_INFEASIBLE, None
             val = k.a_lazy @ w
-            bad = lazy[((val > rhi[lazy] + LAZY_TOL) | (val < rlo[lazy] - LAZY_TOL)) & ~use[lazy]]
-            if not len(bad):
+            bad = ~use & ((val > ctx.lazy_hi + LAZY_TOL) | (val < ctx.lazy_lo - LAZY_TOL))
+            if not bad.any():
                 break
-            use[bad] = True
+            use |= bad
         u = k.r_inv @ w
         z = k.s @ u + ctx.z0
         f = k.objective(z)
-        if not k.verified(f, a, w, lam, rlo[use], rhi[use], ctx):
+        if not k.verified(f, a, w, lam, rlo, rhi, ctx):
             return False, None
         y_out = np.ones_like(y) if relax else y
         return True, QpSolution(f, z[k.x_pos], u.reshape(k.u_shape), z[k.term], np.array(y_out, float),
-                                (y, relax), "daqp", rows[lazy[use[lazy]]])
+                                (y, relax), "daqp", ctx.lazy_ids[use])
 
 
 def _daqp(k: "Condensed", a, rows, rlo, rhi, ctx, working) -> tuple[int, np.ndarray, np.ndarray, tuple, int]:
@@ -238,22 +237,45 @@ def _daqp(k: "Condensed", a, rows, rlo, rhi, ctx, working) -> tuple[int, np.ndar
 @dataclass(frozen=True, eq=False)
 class _Context:
     """What the row bounds ``lo, hi`` (one start and goal) fix: ``z0 = P b_E``, the linear
-    term in ``w`` (``lin_w = R^-T g``), the constant ``c0``, the forces with bounds and
-    their bounds, and the bounds of every general row less its offset ``A_IO z0`` (``g_lo,
-    g_hi``; ``a_lo, a_hi`` for the avoidance row of each binary)."""
+    term in ``w`` (``lin_w = R^-T g``), the constant ``c0``, and the rows every QP of this
+    start keeps: the forces with bounds and the general rows, as ids into :attr:`Condensed.a_w`
+    with their bounds less the offset ``A_IO z0``, split into the ``core`` rows DAQP always
+    gets (their matrix ``core_a`` gathered once here, not per QP) and the speed-polygon
+    rows (``lazy_ids``, their matrix ``lazy_a``: :attr:`Condensed.a_lazy`); ``a_lo, a_hi``: the
+    bounds of the avoidance row of each binary; ``crossed``: some kept row's lower bound is
+    above its upper one."""
 
     lo: np.ndarray
     hi: np.ndarray
     z0: np.ndarray
     lin_w: np.ndarray
     c0: float
-    forces: np.ndarray
-    f_lo: np.ndarray
-    f_hi: np.ndarray
-    g_lo: np.ndarray
-    g_hi: np.ndarray
+    core_ids: np.ndarray
+    core_a: np.ndarray
+    core_lo: np.ndarray
+    core_hi: np.ndarray
+    lazy_ids: np.ndarray
+    lazy_a: np.ndarray
+    lazy_lo: np.ndarray
+    lazy_hi: np.ndarray
     a_lo: np.ndarray
     a_hi: np.ndarray
+    crossed: bool
+
+    def rows(self, lazy: np.ndarray, face_ids, face_a, face_lo, face_hi
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """A QP's rows: sorted ids, their matrix in ``w`` and bounds, of the core rows, the
+        speed rows ``lazy`` (bool over :attr:`lazy_ids`) marks and the given avoidance rows
+        (ids above every other row's)."""
+        parts = [(self.core_ids, self.core_a, self.core_lo, self.core_hi)]
+        if lazy.any():
+            ids = np.concatenate([self.core_ids, self.lazy_ids[lazy]])
+            order = np.argsort(ids, kind="stable")
+            parts = [(ids[order], a[order], lo[order], hi[order]) for a, lo, hi in [(
+                np.concatenate([self.core_a, self.lazy_a[lazy]]), np.concatenate([self.core_lo, self.lazy_lo[lazy]]),
+                np.concatenate([self.core_hi, self.lazy_hi[lazy]]))]]
+        parts.append((face_ids, face_a, face_lo, face_hi))
+        return tuple(np.concatenate(p) for p in zip(*parts))
 
 
 @dataclass(frozen=True, eq=False)
@@ -380,30 +402,36 @@ class Condensed:
         off = self.a_io @ z0
         # an avoidance row is -(a . p) <= -b, p = P_w w + p0: its offset at w = 0 is -(a . p0)
         off_face = -np.einsum("rd,nfd->rnf", z0[self.pos_o], self.normals).reshape(-1)
-        bounds = (np.clip(v, -BIG, BIG) for v in (lb[forces], ub[forces], lo[self.rows] - off, hi[self.rows] - off,
-                                                  lo[self.avoid_row] - off_face, hi[self.avoid_row] - off_face))
-        return _Context(lo.copy(), hi.copy(), z0, self.r_inv.T @ lin, float(self.w @ (t0 * t0)), forces, *bounds)
+        ids = np.concatenate([forces, len(self.r_inv) + np.arange(len(self.rows))])
+        b_lo, b_hi, a_lo, a_hi = (np.clip(v, -BIG, BIG) for v in (
+            np.concatenate([lb[forces], lo[self.rows] - off]), np.concatenate([ub[forces], hi[self.rows] - off]),
+            lo[self.avoid_row] - off_face, hi[self.avoid_row] - off_face))
+        core, lazy = ~self.lazy[ids], self.lazy[ids]  # every speed row is a general row: lazy is a_lazy's order
+        return _Context(lo.copy(), hi.copy(), z0, self.r_inv.T @ lin, float(self.w @ (t0 * t0)), ids[core],
+                        self.a_w[ids[core]], b_lo[core], b_hi[core], ids[lazy], self.a_lazy, b_lo[lazy], b_hi[lazy],
+                        a_lo, a_hi, bool(np.any(b_lo > b_hi)))
+
+    def faces_on(self, y, relax, needed=None) -> np.ndarray:
+        """The binaries (flat ``y`` order) whose avoidance rows a QP keeps: those with
+        ``y = 0`` (``y = 1`` rows are implied by the area, tight big-M, and dropped), so
+        the binaries never shift a kept row's bounds, and, given ``needed (T-1, n)`` bool,
+        only for the (step, obstacle) pairs it marks: the caller knows the others' rows
+        hold for every plan that matters.  None under ``relax``."""
+        if relax or not len(self.avoid_row):
+            return np.zeros(0, int)
+        keep = y.reshape(-1) == 0
+        if needed is not None:
+            keep &= np.repeat(needed.reshape(-1), self.normals.shape[1])
+        return np.flatnonzero(keep)
 
     def rows_for(self, y, relax, ctx, needed=None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """Rows kept for this QP: sorted ids (below ``len(a_w)``: rows of :attr:`a_w`; above:
-        ``len(a_w) +`` a binary's avoidance row), their bounds (DAQP's infinity) and their
-        matrix in ``w``.
-
-        An avoidance row is kept where ``y = 0`` (``y = 1`` rows are implied by the area,
-        tight big-M, and dropped), so the binaries never shift a kept row's bounds, and,
-        given ``needed (T-1, n)`` bool, only for the (step, obstacle) pairs it marks: the
-        caller knows the others' rows hold for every plan that matters."""
-        base = np.concatenate([ctx.forces, len(self.r_inv) + np.arange(len(self.rows))])  # np.r_: 50 us a call
-        on = np.zeros(0, int)
-        if not relax and len(self.avoid_row):
-            keep = y.reshape(-1) == 0
-            if needed is not None:
-                keep &= np.repeat(needed.reshape(-1), self.normals.shape[1])
-            on = np.flatnonzero(keep)
-        ids = np.concatenate([base, len(self.a_w) + on])
-        a = np.concatenate([self.a_w[base], self.face_rows(on)])
-        rlo = np.concatenate([ctx.f_lo, ctx.g_lo, ctx.a_lo[on]])
-        return ids, rlo, np.concatenate([ctx.f_hi, ctx.g_hi, ctx.a_hi[on]]), a
+        """Every row of this QP, the speed polygon's included: sorted ids (below
+        ``len(a_w)``: rows of :attr:`a_w`; above: ``len(a_w) +`` a binary's avoidance row
+        (:meth:`faces_on`)), their bounds (DAQP's infinity) and their matrix in ``w``."""
+        on = self.faces_on(y, relax, needed)
+        ids, a, rlo, rhi = ctx.rows(np.ones(len(ctx.lazy_ids), bool), len(self.a_w) + on, self.face_rows(on),
+                                    ctx.a_lo[on], ctx.a_hi[on])
+        return ids, rlo, rhi, a
 
     def face_rows(self, flat: np.ndarray) -> np.ndarray:
         """``(k, n)`` the avoidance rows in ``w`` of the binaries ``flat`` (flat ``y`` order)."""
@@ -411,10 +439,6 @@ class Condensed:
         r, rest = np.divmod(flat, n_obs * f)
         a = self.normals.reshape(-1, 2)[rest]  # (k, 2)
         return -(a[:, :1] * self.pos_w[r, 0] + a[:, 1:] * self.pos_w[r, 1])
-
-    def lazy_rows(self, ids: np.ndarray) -> np.ndarray:
-        """Positions in ``ids`` of the speed-polygon rows."""
-        return np.flatnonzero(self.lazy[ids[ids < len(self.a_w)]])
 
     def objective(self, z: np.ndarray) -> float:
         t = z[self.term]
