@@ -76,7 +76,7 @@ def first_plans(m, guidance, best_known: float) -> list[dict]:
         plan = guidance.plan(t.mean0, t.cov0, goal.centroid)
         row = {"status": plan.status, "objective": plan.objective, "gap": plan.gap, "seconds": plan.solve_seconds,
                "work": plan.work_seconds, "unreachable": plan.unreachable,
-               "collisions": collisions(m.world, plan, t.mean0)[0] if plan.ok else 0,
+               "collisions": collisions(m.world, plan)[0] if plan.ok else 0,
                "end_to_goal_m": goal_distance(m.world, t, plan.positions[-1, :2]) if plan.ok else None}
         if long is not None:
             ref = long.plan(t.mean0, t.cov0, goal.centroid)
@@ -97,17 +97,16 @@ def closed_loop(m, guidance, trials: int) -> dict:
         for seed in trial_seeds(m.seed, trials):
             sim = Simulation(m, "optimized", guidance)
             t0 = time.perf_counter()
-            before = sim.reset(seed).mean
+            sim.reset(seed)
             resets.append(time.perf_counter() - t0)
-            hits += sum(collisions(m.world, p, x)[0] for p, x in zip(sim.truth.plans, sim.truth.state))
+            hits += sum(collisions(m.world, p)[0] for p in sim.truth.plans)
             e = []
             for _ in range(m.steps):
                 info = sim.step()
                 steps.append(info.seconds["total"])
                 e.append(((info.mean[:, :2] - info.truth[:, :2]) ** 2).sum(axis=1))
-                hits += sum(collisions(m.world, p, x)[0] for p, x in zip(info.plans, before))
-                before = info.mean
-                for p in [*info.plans, *(h for half in sim.half_plans for h in half)]:
+                for p in sim.replans:  # the filter's plans, each from the mean it was made from
+                    hits += collisions(m.world, p)[0]
                     plans.append((p.status, p.gap, p.solve_seconds))
             truth_hits += sim.truth.collisions
             err2.append(e)

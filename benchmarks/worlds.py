@@ -77,15 +77,15 @@ def write_world(seed: int, folder: Path) -> Path:
 
 
 # --------------------------------------------------------------------------- checks
-def collisions(world, plan, start) -> tuple[int, int]:
+def collisions(world, plan) -> tuple[int, int]:
     """``(guarded, unguarded)``: the plan's points inside, and segments through, any raw
-    obstacle, from its start ``(6,)`` on: the points P1 keeps clear (from
+    obstacle, from its start (:attr:`uavsim.guidance.Plan.start`) on: the points P1 keeps clear (from
     :attr:`uavsim.guidance.Plan.guarded_from`) and the segments between two of them
     (nonzero only if the solver is wrong: two points outside an obstacle inflated by
     ``v_max dt / 2 + clearance`` at most ``v_max dt`` apart cannot straddle it), and the
     rest, which a start inside a margin leaves unguarded (step 1 is ``p + v dt`` whatever
     the force, so the segment into the first guarded point is unguarded too)."""
-    p = world.on_ground(np.vstack([start[:3], plan.positions]))
+    p = world.on_ground(np.vstack([plan.start[:3], plan.positions]))
     point = np.r_[False, world.in_obstacle(p[1:])]  # point[tau]: step tau
     seg = np.r_[False, world.segment_blocked(p[:-1], p[1:])]  # seg[tau]: from step tau - 1 to tau
     g = plan.guarded_from
@@ -172,7 +172,7 @@ def run_world(seed: int, folder: str, trials: int, steps: int, budget: float | N
         for t in m.targets:  # first plans from the prior mean, against the route baseline
             plan = guidance.plan(t.mean0, t.cov0, m.world.goals[t.goal].centroid)
             route, ending_in = baselines(m, guidance, t, plan)
-            out["collisions"] += collisions(m.world, plan, t.mean0)[0] if plan.ok else 0
+            out["collisions"] += collisions(m.world, plan)[0] if plan.ok else 0
             out["first"].append({"status": plan.status, "objective": plan.objective, "gap": plan.gap,
                                  "seconds": plan.solve_seconds, "in_goal": plan.ok and in_goal(m.world, t, plan),
                                  "end_to_goal_m": goal_distance(m.world, t, plan.positions[-1, :2]),
@@ -181,10 +181,9 @@ def run_world(seed: int, folder: str, trials: int, steps: int, budget: float | N
             err2 = []
             for seed_k in trial_seeds(m.seed, trials):
                 sim = Simulation(m, "optimized", guidance, oracle=oracle)
-                before = sim.reset(seed_k).mean
+                sim.reset(seed_k)
                 if not oracle:
-                    out["collisions"] += sum(collisions(m.world, plan, x)[0]
-                                             for plan, x in zip(sim.truth.plans, sim.truth.state))
+                    out["collisions"] += sum(collisions(m.world, plan)[0] for plan in sim.truth.plans)
                 e = []
                 for _ in range(m.steps):
                     info = sim.step()
@@ -192,10 +191,8 @@ def run_world(seed: int, folder: str, trials: int, steps: int, budget: float | N
                     if oracle:
                         continue
                     out["step_seconds"].append(info.seconds["total"])
-                    for plan, x in zip(info.plans, before):  # the filter's plans, from the mean they were made from
-                        out["collisions"] += collisions(m.world, plan, x)[0]
-                    before = info.mean
-                    for plan in [*info.plans, *(p for half in sim.half_plans for p in half)]:
+                    for plan in sim.replans:  # the filter's plans, each from the mean it was made from
+                        out["collisions"] += collisions(m.world, plan)[0]
                         out["replans"].append({"status": plan.status, "gap": plan.gap, "seconds": plan.solve_seconds,
                                                "warm": info.t > 1})
                 if not oracle:

@@ -294,3 +294,9 @@ def test_plan_clusters_2_moves_each_half_by_the_plan_from_its_own_mean():
     d = m.dynamics
     want = x0[0] @ d.a.T + z[0] @ d.q_chol.T + np.where(mask[0][:, None], forces[1] @ d.b.T, forces[0] @ d.b.T)
     np.testing.assert_allclose(pf.particles[0], want, rtol=1e-9, atol=1e-6)
+    # no plan is made from the split cloud's mean: the target's plan is its heavier half's
+    heavier = int((w[0] * mask[0]).sum() > (w[0] * ~mask[0]).sum())  # as the closed loop weighs them
+    assert sim.plans[0] is plans[heavier]
+    sim.step()
+    assert len(sim.replans) == sum(len(h) or 1 for h in sim.half_plans)
+    assert all(sim.plans[j] in (h or [sim.plans[j]]) for j, h in enumerate(sim.half_plans))

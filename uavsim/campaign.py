@@ -284,7 +284,7 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
             observers.append(info.observers)
             if info.sensitivity is not None:
                 sens.append(info.sensitivity)
-            for p in [*info.plans, *(h for half in sim.half_plans for h in half)]:  # halves: plan_clusters = 2
+            for p in sim.replans:
                 statuses[p.status] = statuses.get(p.status, 0) + 1
             events += [f"step {info.t}: {e}" for e in info.events if not e.startswith("resampled")]
     return TrialResult(index, np.array(err2), np.array(trace), np.array(nees_pos), np.array(nees_state),

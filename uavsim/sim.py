@@ -4,18 +4,20 @@ Each step t -> t+1:
 
 1. **truth forces**: the true targets' controls (:mod:`.truth`);
 2. **guidance**: every target's P1 is re-solved from its posterior ``N(mu_t, Sigma_t)``
-   (Eq. 8c, rolling horizon), warm-started from its previous plan (at the first step
-   from its plan at the prior mean, the same in every trial); a failed re-plan
+   (Eq. 8c, rolling horizon; or from each half of its particle cloud, step 3),
+   warm-started from its previous plan (at the first step from its plan at the prior
+   mean, the same in every trial); a failed re-plan
    falls back to the previous plan shifted by one step (an event is logged);
 3. **belief predict** (Eq. 9a) with each plan's first control.  With ``[filter]
    plan_clusters = 2`` each particle cloud is split in two (:func:`.belief.particle.halves`)
    and each half moves by the first control of a plan from its own mean and covariance
-   (warm-started from the mean's plan of the same step).  A plan depends on the start's
+   (warm-started from the previous step's half plan nearest it; no plan is made from the
+   mean of a split cloud, see :meth:`Simulation._plan_controls`).  A plan depends on the start's
    velocity as much as on its position, and on which side of an obstacle it lies, so one
    plan from the mean moves the whole cloud by a force that fits neither part of a
    spread or split cloud (on 50 generated worlds, ``benchmarks/worlds.py``, two plans
-   halved the targets lost against a filter handed the truth's forces; docs/methods/filter.md).  A half
-   holding less than :data:`MIN_HALF` of the weight moves by the mean's plan;
+   halved the targets lost against a filter handed the truth's forces; docs/methods/filter.md).  A cloud
+   with a half holding less than :data:`MIN_HALF` of the weight moves by the plan from its mean;
 4. **UAV**: the policy moves (:mod:`.uav`: Eq. 12-13 grid moves, a manoeuvre, fixed
    sensors, no sensor), or takes the move given to :meth:`Simulation.step`;
 5. **truth moves**, then **sense and update** (Eq. 4, 9b-11) from the policy's observers;
@@ -47,7 +49,7 @@ from .world.routes import GoalField
 __all__ = ["Simulation", "StepInfo", "target_bearings"]  # the public interface (docs/api.md renders each)
 
 STAGES = ("guidance", "filter", "planner", "truth", "total")  # seconds per step; "planner": the policy's act
-MIN_HALF = 0.01  # a half of the particle cloud with less weight than this moves by the mean's plan
+MIN_HALF = 0.01  # a cloud with a half of less weight than this moves by the plan from its mean
 
 
 @dataclass
@@ -120,14 +122,10 @@ class Simulation:
         if self.oracle:
             controls = self._truth_controls
         else:
-            mean, cov = self.belief.moments()
             previous, shift = self.plans, 1
             if self.t == 0:  # the first re-plans start from the plans at the priors (made once per process)
-                previous, shift = [self._prior_plan(j) for j in range(len(mean))], 0
-            self.plans = [self._replan(j, mean[j], cov[j], previous[j], events, shift=shift) for j in range(len(mean))]
-            controls = np.array([p.controls[0] for p in self.plans])
-            if m.filter.plan_clusters == 2:
-                controls, split = self._half_controls(controls, previous, events)
+                previous, shift = [self._prior_plan(j) for j in range(len(m.targets))], 0
+            controls, split = self._plan_controls(previous, shift, events)
         sec["guidance"] = time.perf_counter() - t1
         t2 = time.perf_counter()
         self.belief.predict(m.dynamics, controls, split)
@@ -158,6 +156,14 @@ class Simulation:
         self.t += 1
         self._prepared = False
         return self._info(scans, [] if self.oracle else self.plans, moves, sec, events)
+
+    @property
+    def replans(self) -> list[Plan]:
+        """The re-plans of the last step, each once: a split target's two half plans (its
+        :attr:`plans` entry is one of them), else its plan from the mean; none under the oracle."""
+        if self.oracle or self.t == 0:
+            return []
+        return [p for plan, halves in zip(self.plans, self.half_plans) for p in (halves or [plan])]
 
     def _recover(self, scans, observers, sensor) -> list[str]:
         """Re-seed the tracks the belief declares lost, each from the routes to its goal."""
@@ -192,23 +198,49 @@ class Simulation:
         plan = self.guidance.plan(t.mean0, t.cov0, self.m.goals[j])
         return plan if plan.ok else None
 
-    def _half_controls(self, controls: np.ndarray, previous: list[Plan | None], events: list[str]
-                       ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray]]:
-        """``plan_clusters = 2`` (module docstring): the first controls of both halves'
-        plans, ``(M, 3)`` for the first half and ``(mask (M, N), (M, 3))`` for the second."""
+    def _plan_controls(self, previous: list[Plan | None], shift: int, events: list[str]
+                       ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
+        """Every target's re-plan (step 2 of the module docstring): ``(M, 3)`` first controls,
+        and with ``plan_clusters = 2`` the split ``(mask (M, N), (M, 3))`` of the second
+        halves' controls (None otherwise).  ``previous[j]``: target j's plan made ``shift``
+        steps ago, the warm start.
+
+        A target whose halves both hold at least :data:`MIN_HALF` of the weight is planned
+        from its halves only, each warm-started from the previous step's half plan that
+        predicted its mean best (or from ``previous[j]``); its plan (:attr:`plans`, the
+        forecast and the recording's) is the heavier half's.  The others are planned from
+        the mean."""
+        mean, cov = self.belief.moments()
+        m = len(mean)
+        if self.m.filter.plan_clusters != 2:
+            self.plans = [self._replan(j, mean[j], cov[j], previous[j], events, shift=shift) for j in range(m)]
+            return np.array([p.controls[0] for p in self.plans]), None
         mask, mass, means, covs = self.belief.halves()
-        both = np.stack([controls, controls], axis=1)  # (M, 2, 3)
-        for j in range(len(controls)):
+        both = np.empty((m, 2, 3))
+        plans: list[Plan] = []
+        for j in range(m):
             if mass[j].min() < MIN_HALF:
+                plans.append(self._replan(j, mean[j], cov[j], previous[j], events, shift=shift))
+                both[j] = plans[-1].controls[0]
                 self.half_plans[j] = []
                 continue
-            plans = []
-            for h in range(2):
-                plans.append(self._replan(j, means[j, h], covs[j, h], self.plans[j], events, f"estimate, half {h + 1}",
-                                          shift=0))
-                both[j, h] = plans[-1].controls[0]
-            self.half_plans[j] = plans
+            halves = [self._replan(j, means[j, h], covs[j, h], self._half_warm(j, means[j, h], previous[j], shift),
+                                   events, f"estimate, half {h + 1}", shift=shift) for h in range(2)]
+            both[j] = [p.controls[0] for p in halves]
+            plans.append(halves[int(mass[j, 1] > mass[j, 0])])
+            self.half_plans[j] = halves
+        self.plans = plans
         return both[:, 0], (mask, both[:, 1])
+
+    def _half_warm(self, j: int, start: np.ndarray, previous: Plan | None, shift: int) -> Plan | None:
+        """The warm start of a half of target j's cloud with mean ``start (6,)``: of the
+        previous step's half plans, the one whose prediction of this step lies nearest
+        ``start`` in position; ``previous`` if there are none (or at the first step)."""
+        last = self.half_plans[j] if shift == 1 else []
+        if not last:
+            return previous
+        miss = [np.hypot(*(p.means[0, :2] - start[:2])) for p in last]
+        return last[int(np.argmin(miss))]
 
 
 def target_bearings(infos: list[StepInfo], target: int, dt: float, sensor: int = 0

@@ -77,6 +77,7 @@ class Plan:
     guarded_from : the first planned step from which every avoidance constraint holds: 2
         (step 1 is fixed by the start), later where the start lies in an obstacle's margin
         and cannot leave it sooner (the message names the obstacles).
+    start : (6,) the mean the plan starts from (None if it has no controls).
     """
 
     status: str
@@ -96,6 +97,7 @@ class Plan:
     unreachable: bool = False
     work_seconds: float = 0.0
     guarded_from: int = 2
+    start: np.ndarray | None = None
 
     @property
     def eventful(self) -> bool:
@@ -118,7 +120,7 @@ class Plan:
         means, covs = dynamics.predict_moments(mean, cov, controls)
         faces = None if self.faces is None else np.concatenate([self.faces[by:], np.repeat(self.faces[-1:], by, 0)])
         return replace(self, status="fallback", controls=controls, means=means, covs=covs, faces=faces,
-                       solve_seconds=0.0, iterations=0, message=why)
+                       solve_seconds=0.0, iterations=0, message=why, start=np.array(mean, float))
 
 
 class Guidance:
@@ -279,7 +281,7 @@ class Guidance:
                                                             "flying the previous plan", shift)
         controls = np.zeros((self.horizon_at(step), 3))
         means, covs = self.dynamics.predict_moments(mean, cov, controls)
-        return replace(plan, status="fallback", controls=controls, means=means, covs=covs,
+        return replace(plan, status="fallback", controls=controls, means=means, covs=covs, start=np.array(mean, float),
                        message=f"no plan ({plan.status}: {plan.message}); coasting")
 
     def _plan(self, mean, cov, goal, warm, horizon, t0) -> Plan:
@@ -326,7 +328,8 @@ class Guidance:
         means, covs = self.dynamics.predict_moments(mean, cov, controls)
         gap = max(obj - lb, 0.0) / max(obj, 1.0)
         return Plan(status, obj, lb, gap, it, time.perf_counter() - t0, controls, means, covs, faces, terms,
-                    self._in_margin(means[0]), msg, work_seconds=work, guarded_from=guarded)
+                    self._in_margin(means[0]), msg, work_seconds=work, guarded_from=guarded,
+                    start=np.array(mean, float))
 
     def _within_limits(self, mean: np.ndarray) -> tuple[np.ndarray, str]:
         """``mean (6,)`` with its ground position clipped to the area and its ground speed
