@@ -218,7 +218,7 @@ def plan_of_work(mission: Mission, workers: int, guidance: tuple[float, float] |
     the plans: ``guidance = (first, replan)`` seconds (:func:`guidance_seconds`; without
     them, the budgets: at most that).  Each process makes each target's first plan from
     the prior mean once; each trial makes its truth's plans (warm-started: re-plans) and
-    their sensitivity, and every step one re-plan per target and cluster.  ``campaigns``:
+    their sensitivity, and every step one re-plan per target and cluster (at most).  ``campaigns``:
     how many campaigns of these trials run (planners and the no-information baseline,
     which plans the same)."""
     m, n = len(mission.targets), mission.filter.particles if mission.filter.kind == "particle" else 1
@@ -229,7 +229,7 @@ def plan_of_work(mission: Mission, workers: int, guidance: tuple[float, float] |
     trial_steps = campaigns * mission.trials * mission.steps
     workers = max(1, min(workers, mission.trials))
     first, replan = guidance or (mission.guidance.time_limit, mission.guidance.replan_budget)
-    plans = 1 + 2 * (mission.filter.plan_clusters > 1)
+    plans = mission.filter.plan_clusters  # a split cloud is planned from its halves, not its mean (uavsim.sim)
     truth = (mission.steps if mission.truth == "stochastic"  # re-planned every step
              else 1 + SENSITIVITY_REPLANS + mission.steps // mission.guidance.horizon)  # and past each horizon
     # the first plans: made here (guidance_seconds) and kept for the campaigns run here, or

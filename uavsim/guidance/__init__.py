@@ -12,9 +12,10 @@ machine (the 2-core Intel Xeon of docs/data/budget.json): each fixed-face QP is 
 there, from what it did (its DAQP calls, rows and iterations, its Clarabel solves:
 :data:`.qp.WORK_CALL_S` and the rest) and the search's work round it
 (:data:`.oa.NODE_SECONDS`), not from the clock, so a plan depends on its inputs only:
-campaigns stay bit-identical on any machine and for any number of workers, and on the
-reference machine a budget of 10 s takes about 10 s (``benchmarks/budget.py`` measures
-the ratio of wall to reference seconds).
+campaigns stay bit-identical on any machine and for any number of workers.  On the
+reference machine a budget of 10 s took about 10 s when the constants were fitted, and
+0.6-0.9 of that on re-plans since the QPs' overhead shrank (``benchmarks/budget.py``
+measures the ratio of wall to reference seconds).
 A wall-clock cap of :data:`WALL_CAP` times the budget stops a solve that runs far slower
 than that; the plan then says so.  Within its budget a solve returns the best
 collision-free plan it has, with its certified gap (status "feasible" when above the
