@@ -8,6 +8,8 @@ maps the names a mission or the command line uses to their makers:
 
 * ``optimized``: the grid move of least summed pseudo-posterior trace (Eq. 3, 12-13),
   or a move chosen from outside (``Simulation.step(action)``, the Gymnasium environment);
+* ``weighted``: Eq. (13) with each target's trace weighted by its size over the moves
+  (ours; the targets known least about count most, :class:`.grid.Weighted`);
 * ``lookahead``: the grid move of least covariance trace accumulated over a rollout of
   the myopic rule for several steps (non-myopic; :mod:`.lookahead`);
 * ``zigzag``, ``square``, ``pentagon``, ``circle``: pre-computed loops (Fig. 3);
@@ -37,18 +39,18 @@ from ..declare import setting
 from ..mission import Mission
 from ..sensing import BearingModel
 from .fixed import FixedSensors, FixedSensorsConfig, NoSensor
-from .grid import GridOptimizer, UavConfig, admissible, candidates, decide, move_offsets, uav_start
+from .grid import GridOptimizer, UavConfig, Weighted, admissible, candidates, decide, move_offsets, uav_start
 from .lookahead import Lookahead, LookaheadConfig
 from .manoeuvres import MANOEUVRES, Manoeuvre, ManoeuvreConfig, Route, manoeuvre_loop, manoeuvre_route, place_loop
 
-POLICIES = {"optimized": GridOptimizer, "lookahead": Lookahead, **{n: partial(Manoeuvre, n) for n in MANOEUVRES},
-            "fixed-sensors": FixedSensors, "baseline": NoSensor}
+POLICIES = {"optimized": GridOptimizer, "weighted": Weighted, "lookahead": Lookahead,
+            **{n: partial(Manoeuvre, n) for n in MANOEUVRES}, "fixed-sensors": FixedSensors, "baseline": NoSensor}
 PLANNERS = tuple(POLICIES)  # the names users give: `--planner`, [planner] name
 BASELINE = "baseline"  # the policy every study is measured against
 
 __all__ = ["POLICIES", "PLANNERS", "BASELINE", "MANOEUVRES", "Policy", "PlannerConfig", "UavConfig", "ManoeuvreConfig",
-           "FixedSensorsConfig", "LookaheadConfig", "GridOptimizer", "Lookahead", "Manoeuvre", "FixedSensors",
-           "NoSensor", "Route", "make_policy", "decide",
+           "FixedSensorsConfig", "LookaheadConfig", "GridOptimizer", "Weighted", "Lookahead", "Manoeuvre",
+           "FixedSensors", "NoSensor", "Route", "make_policy", "decide",
            "admissible", "candidates", "move_offsets", "uav_start", "manoeuvre_loop", "manoeuvre_route", "place_loop"]
 
 
