@@ -15,7 +15,8 @@ optimized policy with [Papaioannou2023]'s filter as published (``filter.loss_nat
 policy against true targets that re-plan and take the process noise Q the filter assumes
 (the control for consistency: the planned truth takes no noise at all); ``budget-0.1``,
 ``budget-0.25``: every re-plan's budget (the truth's and the filter's) at 0.1 or 0.25
-reference seconds instead of the mission's 1.0, for speed; ``one-level`` and
+reference seconds instead of the mission's 1.0, for speed (``weighted-budget-0.1``: with the
+``weighted`` UAV policy); ``one-level`` and
 ``no-loss-detection``: the optimized policy with the mission's filter less one of its
 additions (one process noise Q for every particle; no track-loss detection).  Every variant runs the
 same trials (trial k seeded from ``SeedSequence(seed).spawn(trials)[k]``) beside the
@@ -57,6 +58,7 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "lower-noise": ("optimized", {"filter.noise_scales": [0.01, 0.3]}),
     "budget-0.1": ("optimized", {"guidance.replan_budget_s": 0.1}),  # every re-plan's budget, truth's too: speed
     "budget-0.25": ("optimized", {"guidance.replan_budget_s": 0.25}),
+    "weighted-budget-0.1": ("weighted", {"guidance.replan_budget_s": 0.1}),  # the weighted UAV, fast steps
 }
 SHARED = ("truth", "guidance.")  # overrides the baseline takes too: they change the truths, not the filter
 
