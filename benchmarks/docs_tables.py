@@ -316,16 +316,18 @@ def tables_memory(data: dict | None) -> dict[str, str]:
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None,
                  runs: dict | None, tracked: dict | None = None, sight: dict | None = None,
                  sight_cost: dict | None = None, budget_runs: dict | None = None,
-                 step_runs: dict | None = None) -> dict[str, str]:
+                 step_runs: dict | None = None, weighted_runs: dict | None = None) -> dict[str, str]:
     """Real and generated towns: the importer's cover (``osm_import.py``), budgets against
     the wall clock (``budget.py``), the plan of work's CPU (``resources.py``), guidance
     and the closed loop in towns (``towns.py``), tracking there (``tracking.py``), with
     and without line of sight (``tracking.py``, ``line_of_sight.py``), and with smaller
-    re-plan budgets (``tracking.py``, before and after the halves-only plans)."""
+    re-plan budgets (``tracking.py``, before and after the halves-only plans), and the
+    weighted UAV policy against Eq. (13) (``tracking.py``)."""
     out = {name: tracking.table(data["rows"]) + f"\n\n{data['settings']['trials']} trials of "
            f"{data['settings']['steps']} steps a variant, the same trials in every row of a world. " + provenance(data)
            for name, data in (("towns-tracking", tracked), ("towns-line-of-sight", sight),
-                              ("towns-tracking-budget", budget_runs), ("towns-tracking-step", step_runs))
+                              ("towns-tracking-budget", budget_runs), ("towns-tracking-step", step_runs),
+                              ("towns-tracking-weighted", weighted_runs))
            if data is not None}
     if sight_cost is not None:
         rows = [[r["world"], r["obstacles"], f"{r['targets']} x {r['particles']}", r["candidates"],
@@ -432,7 +434,8 @@ def pages() -> dict[Path, dict[str, str]]:
                                                         _load(DATA / "tracking-line-of-sight.json"),
                                                         _load(DATA / "line-of-sight.json"),
                                                         _load(DATA / "tracking-budget.json"),
-                                                        _load(DATA / "tracking-step.json")),
+                                                        _load(DATA / "tracking-step.json"),
+                                                        _load(DATA / "tracking-weighted.json")),
             DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
                                                 **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
                                                                    "lookahead-clusters2")},
