@@ -64,7 +64,7 @@ class StepInfo:
     scans: list[Scan]
     plans: list[Plan]
     candidates: np.ndarray | None  # (C, 3) the UAV's grid moves (the optimized policy)
-    scores: np.ndarray | None  # (C,) summed (weighted policy: weighted) pseudo-posterior traces (inf: not admissible)
+    scores: np.ndarray | None  # (C,) Eq. (13)'s summed traces (weighted policy: weighted sum); inf: not admissible
     seconds: dict[str, float]
     events: list[str] = field(default_factory=list)
     particles: np.ndarray | None = None  # (M, N, 6) posterior particles (a copy)

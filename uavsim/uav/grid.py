@@ -114,9 +114,9 @@ def decide(candidates: np.ndarray, admissible: np.ndarray, traces, weighted: boo
     total = np.full(len(candidates), np.inf)
     if admissible.any():
         t = traces(candidates[admissible])
-        w = t.max(axis=0)
-        if weighted and w.mean() > 0:
-            t = t * (w / w.mean())
+        if weighted:
+            w = t.max(axis=0)
+            t = t * (w / w.mean()) if w.mean() > 0 else t  # all zero: nothing to weigh
         total[admissible] = t.sum(axis=1)
     return int(np.argmin(total)), total
 
