@@ -416,7 +416,7 @@ class Condensed:
         ``y = 0`` (``y = 1`` rows are implied by the area, tight big-M, and dropped), so
         the binaries never shift a kept row's bounds, and, given ``needed (T-1, n)`` bool,
         only for the (step, obstacle) pairs it marks: the caller knows the others' rows
-        hold for every plan that matters.  None under ``relax``."""
+        hold for every plan that matters.  Under ``relax``, none."""
         if relax or not len(self.avoid_row):
             return np.zeros(0, int)
         keep = y.reshape(-1) == 0
