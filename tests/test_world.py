@@ -213,12 +213,9 @@ def test_a_box_prism_is_the_cuboid():
     np.testing.assert_array_equal(diamond.obstacle_lo, [[-10.0, -10.0, 0.0]])
 
 
-def test_segment_blocked_equals_the_exact_clip_of_every_face():
-    """The two-phase test (boxes, circles over the segment's part at obstacle heights, then the
-    footprint's sides) gives the verdict of Cyrus-Beck against all faces of every obstacle, for
-    20 000 random segments among 12 random prisms and cuboids (touching included: segments that
-    end on a face, lie in a roof's plane or stand vertical)."""
-    rng = np.random.default_rng(11)
+def _random_prisms(seed: int) -> World:
+    """12 random convex prisms and boxes in a 200 m square, some raised off the ground."""
+    rng = np.random.default_rng(seed)
     polys = []
     for c in rng.uniform(20, 180, size=(8, 2)):
         angles = np.sort(rng.uniform(0, 2 * np.pi, size=rng.integers(3, 9)))
@@ -226,12 +223,46 @@ def test_segment_blocked_equals_the_exact_clip_of_every_face():
     lo = rng.uniform(0, 150, size=(4, 2))
     footprints = Polygons.concat(Polygons.from_list(polys), Polygons.boxes(lo, lo + rng.uniform(5, 40, size=(4, 2))))
     z = np.column_stack([np.where(rng.random(12) < 0.8, 0.0, 5.0), rng.uniform(8, 40, size=12)])
-    w = World.of_prisms("w", np.zeros(3), np.full(3, 200.0), footprints, z, [f"o{i}" for i in range(12)], ())
+    return World.of_prisms("w", np.zeros(3), np.full(3, 200.0), footprints, z, [f"o{i}" for i in range(12)], ())
+
+
+def test_segment_blocked_equals_the_exact_clip_of_every_face():
+    """The two-phase test (boxes, circles over the segment's part at obstacle heights, then the
+    footprint's sides) gives the verdict of Cyrus-Beck against all faces of every obstacle, for
+    20 000 random segments among 12 random prisms and cuboids (touching included: segments that
+    end on a face, lie in a roof's plane or stand vertical)."""
+    w = _random_prisms(11)
+    rng = np.random.default_rng(11)
     p0 = rng.uniform(0, 200, size=(20000, 3)) * [1, 1, 0.3]
     p1 = rng.uniform(0, 200, size=(20000, 3)) * [1, 1, 0.3]
     p1[:500, :2] = p0[:500, :2]  # vertical
-    p0[500:1000, 2] = p1[500:1000, 2] = z[rng.integers(12, size=500), 1]  # in a roof's plane
+    p0[500:1000, 2] = p1[500:1000, 2] = w.obstacle_hi[rng.integers(12, size=500), 2]  # in a roof's plane
     p1[1000:1500] = w.obstacle_hi[rng.integers(12, size=500)]  # ending on a corner
     want = segments_hit_polytopes(p0, p1, w.normals, w.offsets).any(axis=-1)
     np.testing.assert_array_equal(w.segment_blocked(p0, p1), want)
     assert 0.2 < want.mean() < 0.8
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_fans_give_the_verdict_of_every_segment(seed):
+    """World.fans_blocked (culled by separating axes, a point hidden from the observers'
+    whole hull by one obstacle) equals segment_blocked, and Cyrus-Beck against every face,
+    for every (observer, point) pair: a UAV's grid of moves over ground points (some under
+    the grid, some inside obstacles), observers at mixed heights, and degenerate hulls
+    (one observer, a line of them)."""
+    rng = np.random.default_rng(seed)
+    w = _random_prisms(seed)
+    centre = rng.uniform(40, 160, size=2)
+    grid = np.stack(np.meshgrid(np.arange(-20, 21, 5.0), np.arange(-20, 21, 5.0)), -1).reshape(-1, 2)
+    fans = {"grid": np.column_stack([centre + grid, np.full(len(grid), 40.0)]),
+            "heights": np.column_stack([centre + grid, rng.uniform(0, 60, len(grid))]),
+            "one": np.array([[*centre, 40.0]]),
+            "line": np.column_stack([centre[0] + np.arange(-20, 21, 5.0), np.full(9, centre[1]), np.full(9, 30.0)])}
+    points = np.column_stack([rng.uniform(0, 200, size=(400, 2)), np.where(rng.random(400) < 0.8, 0.0, 12.0)])
+    points[:40, :2] = centre + rng.uniform(-20, 20, size=(40, 2))  # under the observers
+    for name, observers in fans.items():
+        want = w.segment_blocked(observers[:, None], points[None])
+        np.testing.assert_array_equal(w.fans_blocked(observers, points), want, err_msg=name)
+        exact = segments_hit_polytopes(observers[:, None], points[None], w.normals, w.offsets).any(axis=-1)
+        np.testing.assert_array_equal(want, exact, err_msg=name)
+        assert 0.05 < want.mean() < 0.95, name

@@ -183,13 +183,21 @@ class BearingModel(MeasurementModel):
 
     def visible(self, points: np.ndarray, observers: np.ndarray) -> np.ndarray:
         """``(...)`` bool: the segment ``observers -> points`` (broadcast, ``(..., 3)``) is
-        clear of every obstacle (always True without line of sight).  Points of three or
-        more dimensions (targets first, ``(M, ..., 3)``) are taken one target at a time, so that the
-        obstacle test's broad phase keeps to the buildings near each target's cloud."""
+        clear of every obstacle (always True without line of sight).  Where every observer
+        sees every point (the UAV's candidate moves and the targets' particles) the segments
+        are tested as fans (:meth:`~uavsim.world.World.fans_blocked`); otherwise points of
+        three or more dimensions (targets first, ``(M, ..., 3)``) are taken one target at a
+        time, so that the obstacle test's broad phase keeps to the buildings near each
+        target's cloud."""
         points, observers = np.asarray(points, dtype=float), np.asarray(observers, dtype=float)
         shape = np.broadcast_shapes(points.shape[:-1], observers.shape[:-1])
         if not self.line_of_sight or self.world is None or self.world.n_obstacles == 0:
             return np.ones(shape, bool)
+        n_obs, n_pts = observers[..., 0].size, points[..., 0].size
+        if n_obs > 1 and n_obs * n_pts == np.prod(shape):  # every observer sees every point: a fan from each
+            blocked = self.world.fans_blocked(observers.reshape(-1, 3), points.reshape(-1, 3))  # (n_obs, n_pts)
+            return ~blocked[np.broadcast_to(np.arange(n_obs).reshape(observers.shape[:-1]), shape),
+                            np.broadcast_to(np.arange(n_pts).reshape(points.shape[:-1]), shape)]
         if points.ndim < 3 or points.ndim < observers.ndim or points.shape[0] == 1:
             return ~self.world.segment_blocked(observers, points)
         same = observers.ndim == points.ndim  # then observers' first axis is the targets' too (or 1)

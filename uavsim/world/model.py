@@ -429,7 +429,7 @@ class World:
         ends = (p0.reshape(-1, 3), p1.reshape(-1, 3))
         lo, hi = np.minimum(*(e.min(axis=0) for e in ends)), np.maximum(*(e.max(axis=0) for e in ends))
         near = np.flatnonzero(np.all((self.obstacle_lo <= hi) & (self.obstacle_hi >= lo), axis=1))
-        centre = self._circles[0]
+        centre = self.circles[0]
         near = near[np.argsort(np.hypot(*(centre[near] - ends[1][:, :2].mean(axis=0)).T))]
         out = np.zeros(int(np.prod(shape)), dtype=bool)
         a = np.broadcast_to(p0, shape + (3,)).reshape(-1, 3)
@@ -443,12 +443,39 @@ class World:
                 break
         return out.reshape(shape)
 
+    def fans_blocked(self, observers: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """``(C, P)`` bool: :meth:`segment_blocked` for the segment from every observer
+        ``(C, 3)`` to every point ``(P, 3)``, the same verdicts for less work where a few
+        observers see many points (:func:`uavsim.world.sight.fans_blocked`)."""
+        from .sight import fans_blocked  # here: the convex hull needs scipy, reading a world does not
+
+        return fans_blocked(self, observers, points)
+
     def _clip(self, o: int, a: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Segments ``a + t d`` (``(P, 3)`` each), ``t`` in [0, 1], against obstacle ``o``:
-        the indices ``q`` of those that pass within its circle over their part at its
-        heights, and for them the interval ``[s_lo, s_hi]`` of ``t`` inside it (empty where
-        ``s_lo > s_hi``)."""
-        centre, radius = self._circles
+        """Segments ``a + t d`` (``(P, 3)`` each), ``t`` in [0, 1], against obstacle ``o`` (one
+        index, or one per segment): the indices ``q`` of those that pass within its circle
+        over their part at its heights, and for them the interval ``[s_lo, s_hi]`` of ``t``
+        inside it (empty where ``s_lo > s_hi``)."""
+        centre, radius = self.circles
+        t_lo, t_hi = self._slab(o, a, d)
+        dx, dy = d[:, 0], d[:, 1]
+        rx, ry = centre[o, 0] - a[:, 0], centre[o, 1] - a[:, 1]
+        dd = dx * dx + dy * dy
+        t = np.clip((rx * dx + ry * dy) / np.where(dd > 0, dd, 1.0), t_lo, t_hi)
+        q = np.flatnonzero(((rx - t * dx) ** 2 + (ry - t * dy) ** 2 <= radius[o] ** 2) & (t_lo <= t_hi))
+        return (q, *self._sides(o if np.ndim(o) == 0 else o[q], a[q], d[q], t_lo[q], t_hi[q]))
+
+    def meets(self, o, a: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """``(S,)`` bool: segment ``a + t d`` (``(S, 3)`` each, ``t`` in [0, 1]) touches or
+        crosses obstacle ``o`` (one index, or ``(S,)``: one per segment); as
+        :meth:`segment_blocked` tests each obstacle."""
+        q, s_lo, s_hi = self._clip(o, a, d)
+        out = np.zeros(len(a), dtype=bool)
+        out[q[s_lo <= s_hi]] = True
+        return out
+
+    def _slab(self, o, a: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(t_lo, t_hi)``: where ``a + t d``, ``t`` in [0, 1], is at obstacle ``o``'s heights."""
         az, dz = a[:, 2], d[:, 2]
         z_lo, z_hi = self.obstacle_lo[o, 2], self.obstacle_hi[o, 2]
         with np.errstate(divide="ignore", invalid="ignore"):
@@ -456,24 +483,22 @@ class World:
         flat = dz == 0
         t_lo = np.where(flat, np.where((z_lo <= az) & (az <= z_hi), 0.0, 2.0), np.maximum(np.minimum(z0, z1), 0.0))
         t_hi = np.where(flat, 1.0, np.minimum(np.maximum(z0, z1), 1.0))
-        dx, dy = d[:, 0], d[:, 1]
-        rx, ry = centre[o, 0] - a[:, 0], centre[o, 1] - a[:, 1]
-        dd = dx * dx + dy * dy
-        t = np.clip((rx * dx + ry * dy) / np.where(dd > 0, dd, 1.0), t_lo, t_hi)
-        q = np.flatnonzero(((rx - t * dx) ** 2 + (ry - t * dy) ** 2 <= radius[o] ** 2) & (t_lo <= t_hi))
-        # Cyrus-Beck on the ground against the footprint's sides, within [t_lo, t_hi]
-        nx, ny = self.footprints.normals[o, :, 0], self.footprints.normals[o, :, 1]  # (F,); padding repeats a side
-        slack = self.footprints.offsets[o] - (nx * a[q, :1] + ny * a[q, 1:2])  # (Q, F)
-        rate = nx * d[q, :1] + ny * d[q, 1:2]
+        return t_lo, t_hi
+
+    def _sides(self, o, a: np.ndarray, d: np.ndarray, t_lo: np.ndarray, t_hi: np.ndarray):
+        """Cyrus-Beck on the ground against obstacle ``o``'s footprint sides, within [t_lo, t_hi]."""
+        nx, ny = self.footprints.normals[o, ..., 0], self.footprints.normals[o, ..., 1]  # padding repeats a side
+        slack = self.footprints.offsets[o] - (nx * a[:, :1] + ny * a[:, 1:2])  # (S, F)
+        rate = nx * d[:, :1] + ny * d[:, 1:2]
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = slack / rate
-        s_hi = np.minimum(np.min(np.where(rate > 0, ratio, np.inf), axis=1), t_hi[q])
-        s_lo = np.maximum(np.max(np.where(rate < 0, ratio, -np.inf), axis=1), t_lo[q])
+        s_hi = np.minimum(np.min(np.where(rate > 0, ratio, np.inf), axis=1), t_hi)
+        s_lo = np.maximum(np.max(np.where(rate < 0, ratio, -np.inf), axis=1), t_lo)
         parallel_out = np.any((rate == 0) & (slack < 0), axis=1)  # parallel to a side, outside it
-        return q, np.where(parallel_out, np.inf, s_lo), s_hi
+        return np.where(parallel_out, np.inf, s_lo), s_hi
 
     @cached_property
-    def _circles(self) -> tuple[np.ndarray, np.ndarray]:
+    def circles(self) -> tuple[np.ndarray, np.ndarray]:
         """``(centres (n_obs, 2), radii (n_obs,))``: circles on the ground holding each
         footprint (centred on its bounding box, a little larger: a broad phase)."""
         centre = 0.5 * (self.obstacle_lo[:, :2] + self.obstacle_hi[:, :2])
