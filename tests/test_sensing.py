@@ -280,25 +280,75 @@ def test_a_range_bearing_model_flies_through_filter_traces_and_bound():
     np.testing.assert_allclose(b.cov[0, 0][:2, :2], np.linalg.inv(np.linalg.inv(pred) + info), rtol=1e-6)
 
 
-def test_sight_detection_takes_the_nearest_tested_verdict(monkeypatch):
-    """A cloud straddling the block's shadow: with every particle tested the detection is the
-    exact visibility; with 32 tested (the default) the nearest verdicts agree with it for at
-    least 90% of 2000 particles, and only near the shadow's edge."""
+def test_traces_by_cells_equal_the_mix_over_every_particle(monkeypatch):
+    """The fast path's traces under line of sight (cells sorted along and across each cloud,
+    the last filled up with weightless copies) equal model_traces', which tests every
+    particle's line of sight: with a cell per particle for a cloud a shadow's edge crosses,
+    and with the default 32 cells for 999 particles wholly hidden or wholly seen from each
+    candidate; every cell in one block of the sums, or a block a cell (float32 sums: 1e-4)."""
+    from uavsim.belief import traces
+
+    rng = np.random.default_rng(8)
+    s = _los(0.8, 1.0)
+    edge = np.zeros((1, 400, 6))
+    edge[0, :, :2] = [100.0, 125.0] + rng.normal(size=(400, 2)) * [8.0, 4.0]
+    edge[0, :, 3:5] = rng.normal(size=(400, 2))
+    w_edge = rng.dirichlet(np.ones(400))[None]
+    near = np.array([UAV, UAV + [0, 5.0, 0], UAV + [0, -8.0, 0]])
+    clouds = np.zeros((2, 999, 6))
+    clouds[..., :3] = np.array([HIDDEN, SEEN])[:, None] + rng.normal(size=(2, 999, 3)) * [3.0, 3.0, 0.0]
+    w = rng.dirichlet(np.ones(999), size=2)
+    cands = np.array([UAV, UAV + [0, -70.0, 0], [150.0, 180.0, 20.0]])
+    seen = s.visible(clouds[:, None, :, :3], cands[None, :, None])  # (2, 3, 999)
+    assert (seen.all(axis=2) | ~seen.any(axis=2)).all() and not seen[0, 0].any()  # one verdict a cloud; hidden from UAV
+    for block in (traces.BLOCK_ELEMENTS, 1):
+        monkeypatch.setattr(traces, "BLOCK_ELEMENTS", block)
+        monkeypatch.setattr(traces, "SIGHT_CELLS", 400)
+        np.testing.assert_allclose(traces.pseudo_traces(near, edge, w_edge, s),
+                                   traces.model_traces(near, edge, w_edge, s), rtol=1e-4)
+        monkeypatch.setattr(traces, "SIGHT_CELLS", 32)
+        np.testing.assert_allclose(traces.pseudo_traces(cands, clouds, w, s), traces.model_traces(cands, clouds, w, s),
+                                   rtol=1e-4)
+
+
+def _per_particle(cands, particles, w, s) -> np.ndarray:
+    """``(M, C, N)`` detection of each particle (in the original order) by its cell's verdict."""
+    from uavsim.belief.traces import _gather, cell_detection, sight_cells
+
+    n = particles.shape[1]
+    order, k = sight_cells(particles, w)
+    detect = cell_detection(cands, _gather(particles, order), _gather(w, order), k, s)
+    out = np.empty(detect.shape[:2] + (n,), np.float32)
+    cell = np.arange(n) // (order.shape[1] // k)  # the cell of each position but the copies at the end
+    np.put_along_axis(out, np.broadcast_to(order[:, None, :n], out.shape), detect[..., cell], axis=2)
+    return out
+
+
+def test_sight_cells_take_their_tested_verdict(monkeypatch):
+    """A cloud straddling the block's shadow: with a cell per particle the detection is the
+    exact visibility; with 32 cells (the default) the cells' verdicts agree with it for at
+    least 90% of 2000 particles, and only near the shadow's edge.  The cells are of equal
+    count, the last filled up with copies of the last particle."""
     from uavsim.belief import traces
 
     rng = np.random.default_rng(5)
     particles = np.zeros((1, 2000, 6))
-    particles[0, :, :2] = [100.0, 125.0] + rng.normal(size=(2000, 2)) * 8.0  # the shadow's edge: y = 125 at x = 100
-    w = np.full((1, 2000), 1 / 2000)
+    particles[0, :, :2] = [100.0, 125.0] + rng.normal(size=(2000, 2)) * [8.0, 4.0]  # the edge: y = 125 at x = 100
+    w = rng.dirichlet(np.ones(2000))[None]
     cands = np.array([UAV, UAV + [0, 5.0, 0]])
     s = _los(0.9)
     exact = 0.9 * s.visible(particles[:, None, :, :3], cands[None, :, None, :])
-    monkeypatch.setattr(traces, "SIGHT_POINTS", 2000)
-    np.testing.assert_array_equal(traces.sight_detection(cands, particles, w, s), exact.astype(np.float32))
-    monkeypatch.setattr(traces, "SIGHT_POINTS", 32)
-    got = traces.sight_detection(cands, particles, w, s)
+    monkeypatch.setattr(traces, "SIGHT_CELLS", 2000)
+    assert traces.sight_cells(particles, w)[1] == 2000
+    np.testing.assert_array_equal(_per_particle(cands, particles, w, s), exact.astype(np.float32))
+    monkeypatch.setattr(traces, "SIGHT_CELLS", 32)
+    order, k = traces.sight_cells(particles, w)
+    assert k == 32 and order.shape == (1, 2016)  # 8 strips of 4 cells of 63, the last particle copied 16 times
+    np.testing.assert_array_equal(np.sort(order[0, :2000]), np.arange(2000))  # a permutation, then the copies
+    np.testing.assert_array_equal(order[0, 2000:], order[0, 1999])
+    got = _per_particle(cands, particles, w, s)
     assert 0.2 < exact.mean() / 0.9 < 0.8  # the cloud is split by the edge
     wrong = got != exact.astype(np.float32)
     assert wrong.mean() < 0.1
     x, y = particles[0, wrong[0, 0], 0], particles[0, wrong[0, 0], 1]
-    assert np.abs(y - (100.0 + x / 4.0)).max() < 8.0  # one cloud sigma of the edge (UAV over the corner (40, 110))
+    assert np.abs(y - (100.0 + x / 4.0)).max() < 4.0  # within the cloud's lesser sigma (UAV over the corner (40, 110))

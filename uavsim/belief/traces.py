@@ -24,7 +24,8 @@ from ..sensing import BearingModel, MeasurementModel
 
 BLOCK_ELEMENTS = 1 << 16  # candidate x target x particle entries per block: 256 kB float32 arrays stay in L2
 DECISION_PARTICLES = 1000  # per target: the systematic subsample of :func:`model_traces`
-SIGHT_POINTS = 32  # per target: the particles whose line of sight to every candidate is tested
+SIGHT_CELLS = 32  # per target: the cells of :func:`sight_cells`, one line of sight tested to each
+SIGHT_ACROSS = 4  # cells across a cloud's principal axis, in each of its SIGHT_CELLS / 4 strips along it
 
 
 def pseudo_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray,
@@ -32,8 +33,8 @@ def pseudo_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.nda
     """``tr(Sigma~_j(s))`` for every candidate and target, Eq. (12) then Eq. (11).
 
     A bearing sensor takes the fast path below (:func:`bearing_traces`), under line of
-    sight with each particle's detection probability from each candidate
-    (:func:`sight_detection`); any other measurement model :func:`model_traces`.
+    sight with each cell of a cloud detected or not from each candidate
+    (:func:`sight_cells`); any other measurement model :func:`model_traces`.
 
     Parameters
     ----------
@@ -44,37 +45,86 @@ def pseudo_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.nda
     -------
     (C, M) float64 traces.
     """
-    if isinstance(sensor, BearingModel):
-        detect = sight_detection(candidates, particles, weights, sensor) if sensor.line_of_sight else None
-        return bearing_traces(candidates, particles, weights, sensor.sigma, detect)
-    return model_traces(candidates, particles, weights, sensor)
+    if not isinstance(sensor, BearingModel):
+        return model_traces(candidates, particles, weights, sensor)
+    if not sensor.line_of_sight:
+        return bearing_traces(candidates, particles, weights, sensor.sigma)
+    n = particles.shape[1]
+    order, k = sight_cells(particles, weights)
+    particles, weights = _gather(particles, order), _gather(weights, order)
+    weights[:, n:] = 0.0  # the copies that fill the last cells up
+    return bearing_traces(candidates, particles, weights, sensor.sigma,
+                          cell_detection(candidates, particles, weights, k, sensor))
 
 
-def sight_detection(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray,
-                    sensor: BearingModel) -> np.ndarray:
-    """``(M, C, N)`` float32 detection probability of every particle seen from every
-    candidate under line of sight: the segments are tested for :data:`SIGHT_POINTS`
-    particles per target (a deterministic systematic subsample), and every particle takes
-    the verdict of its nearest tested one on the ground (only for the targets a shadow's
-    edge crosses: where every tested particle gets one verdict from a candidate, all
-    take it).  Exact for the tested ones; a particle within a cloud's spacing of a
-    shadow's edge may take the wrong side.  It
-    keeps the segment tests at ``C M SIGHT_POINTS`` (vectorised over candidates and
-    points; one call per target, see :meth:`~uavsim.sensing.BearingModel.visible`)."""
-    reps, _ = _thinned(particles, weights, SIGHT_POINTS)  # (M, K, 6)
-    seen = sensor.visible(reps[:, None, :, :3], np.asarray(candidates, float)[None, :, None, :3])  # (M, C, K)
-    out = np.broadcast_to(seen[:, :, :1], seen.shape[:2] + particles.shape[1:2]).astype(np.float32)
-    mixed = np.flatnonzero((seen.any(axis=2) & ~seen.all(axis=2)).any(axis=1))  # targets a shadow's edge crosses
-    if len(mixed):
-        reps, parts = reps[mixed], particles[mixed]
-        centre = reps[:, :1, :2]  # distances in float32 about a point of each cloud
-        p, r = (parts[..., :2] - centre).astype(np.float32), (reps[..., :2] - centre).astype(np.float32)
-        # |p - r|^2 less |p|^2 (the same for every r): a batched product, no (M, N, K, 2) array
-        nearest = np.argmin((r * r).sum(-1)[:, None, :] - 2.0 * (p @ r.transpose(0, 2, 1)), axis=2)  # (M', N)
-        for j, near in zip(mixed, nearest):  # a gather per target (a handful), along the particles
-            out[j] = seen[j][:, near]
-    out *= np.float32(sensor.p_detect)
-    return out
+def sight_cells(particles: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, int]:
+    """The cells the decision tests line of sight to (:func:`cell_detection`).
+
+    Each target's particles ``(M, N, 6)`` (weights ``(M, N)``) are split into k cells of
+    L particles: :data:`SIGHT_CELLS` / :data:`SIGHT_ACROSS` strips across the cloud's
+    principal axis, each cut in :data:`SIGHT_ACROSS` along the other (fewer cells for
+    clouds of fewer particles).  ``k L >= N``: the last particle fills the last cells up
+    (the caller gives those copies weight 0).
+
+    Returns
+    -------
+    order : (M, k L) the particles cell by cell: cell j is positions ``j L`` to
+    ``(j + 1) L``; k : the number of cells.
+    """
+    m, n, _ = particles.shape
+    across = min(SIGHT_ACROSS, n)
+    strips = max(min(SIGHT_CELLS, n) // across, 1)
+    k = strips * across
+    length = -(-n // k)
+    u, v = _principal(particles[..., :2], weights)  # (M, N) each
+    strip_of = np.empty((m, n), dtype=np.intp)
+    np.put_along_axis(strip_of, np.argsort(u, axis=1), (np.arange(n) // (across * length))[None], axis=1)
+    span = np.ptp(v, axis=1, keepdims=True)
+    order = np.argsort(strip_of + 0.5 * (v - v.min(axis=1, keepdims=True)) / np.where(span > 0, span, 1.0), axis=1)
+    return np.concatenate([order, np.repeat(order[:, -1:], k * length - n, axis=1)], axis=1), k
+
+
+def cell_detection(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray, k: int,
+                   sensor: BearingModel) -> np.ndarray:
+    """``(M, C, k)`` float32 detection probability of each of the k cells of
+    :func:`sight_cells` (particles ``(M, k L, >=3)`` and weights cell by cell) from each
+    candidate: ``p_D``, or 0 where the line of sight to the cell's particle nearest its
+    weighted mean is blocked.
+
+    The whole cell takes that verdict: exact for a target no shadow's edge crosses (every
+    cell gets one verdict from a candidate); a particle in a cell a shadow's edge crosses
+    may take the wrong side.  It keeps the segment tests at ``C M k`` (tested as fans
+    from the candidates: :meth:`~uavsim.sensing.BearingModel.visible`), and the particles
+    of a cell share one detection probability, so none is formed per particle."""
+    m = len(particles)
+    x, y, w = (np.ascontiguousarray(a).reshape(m, k, -1) for a in (particles[..., 0], particles[..., 1], weights))
+    total = w.sum(axis=2, keepdims=True)  # (M, k, 1)
+    some = total > 0  # else the cell's plain mean
+    mx = np.where(some, (w * x).sum(axis=2, keepdims=True) / np.where(some, total, 1.0), x.mean(axis=2, keepdims=True))
+    my = np.where(some, (w * y).sum(axis=2, keepdims=True) / np.where(some, total, 1.0), y.mean(axis=2, keepdims=True))
+    nearest = ((x - mx) ** 2 + (y - my) ** 2).argmin(axis=2)  # (M, k)
+    points = particles[np.arange(m)[:, None], nearest + np.arange(k) * x.shape[2], :3]  # (M, k, 3)
+    seen = sensor.visible(points[:, None], np.asarray(candidates, float)[None, :, None, :3])  # (M, C, k)
+    return seen.astype(np.float32) * np.float32(sensor.p_detect)
+
+
+def _principal(xy: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(u, v)``: positions ``xy (M, N, 2)`` along and across each cloud's principal axis
+    (of its weighted covariance), about its weighted mean; ``(M, N)`` each."""
+    x, y = np.ascontiguousarray(xy[..., 0]), np.ascontiguousarray(xy[..., 1])  # strided views read once
+    x -= np.einsum("mn,mn->m", weights, x)[:, None]
+    y -= np.einsum("mn,mn->m", weights, y)[:, None]
+    wx, wy = weights * x, weights * y
+    cov = np.stack([np.einsum("mn,mn->m", wx, x), np.einsum("mn,mn->m", wx, y), np.einsum("mn,mn->m", wy, y)], -1)
+    _, axes = np.linalg.eigh(cov[:, [0, 1, 1, 2]].reshape(-1, 2, 2))  # (M, 2, 2), ascending
+    return (x * axes[:, :1, 1] + y * axes[:, 1:, 1]), (x * axes[:, :1, 0] + y * axes[:, 1:, 0])
+
+
+def _gather(x: np.ndarray, order: np.ndarray) -> np.ndarray:
+    """``x (M, N, ...)`` with each row's entries taken in ``order (M, N')``: ``(M, N', ...)``."""
+    m, n = x.shape[:2]
+    return x.reshape(m * n, *x.shape[2:])[(order + n * np.arange(m)[:, None]).ravel()].reshape(
+        order.shape + x.shape[2:])
 
 
 def model_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray,
@@ -143,10 +193,11 @@ def bearing_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.nd
     ----------
     candidates : (C, >=2) UAV positions; particles : (M, N, 6) predicted particles;
     weights : (M, N) their weights (rows sum to 1); sigma : bearing noise std (rad);
-    detect : (M, C, N) each particle's detection probability from each candidate (line
-    of sight), or None: the detection is taken for granted, as in Eq. (12).  With it the
-    expected trace mixes both outcomes, ``P_d tr(Sigma_det) + (1 - P_d) tr(Sigma_miss)``
-    (:func:`model_traces`).
+    detect : (M, C, k) under line of sight: the particles are in k cells of ``N / k``
+    (:func:`sight_cells`), cell j detected from candidate c with probability
+    ``detect[:, c, j]`` (:func:`cell_detection`); or None: the detection is taken for
+    granted, as in Eq. (12).  With it the expected trace mixes both outcomes,
+    ``P_d tr(Sigma_det) + (1 - P_d) tr(Sigma_miss)`` (:func:`model_traces`).
 
     Returns
     -------
@@ -154,10 +205,10 @@ def bearing_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.nd
 
     Notes
     -----
-    The particles are taken in blocks of about ``BLOCK_ELEMENTS / (C M)`` so the
-    ``(M, C, block)`` working arrays stay in cache and the time grows linearly in N.  Each
-    block's sums are taken relative to its own best-aligned particle and rescaled to the
-    best of all when the blocks are added (in float64).
+    The particles are taken in blocks of about ``BLOCK_ELEMENTS / (C M)`` (whole cells
+    under line of sight) so the ``(M, C, block)`` working arrays stay in cache and the time
+    grows linearly in N.  Each block's sums are taken relative to its own best-aligned
+    particle and rescaled to the best of all when the blocks are added (in float64).
     """
     mean = (weights[:, None, :] @ particles)[:, 0]  # (M, 6)
     rows = _particle_rows(particles, mean)  # (M, 8, N) float32: p_x, p_y, 1, p_z, p_v (3), |p|^2
@@ -169,11 +220,14 @@ def bearing_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.nd
     feats = rows * weights.astype(np.float32)[:, None, :]  # w_i (p_x, p_y, 1, ...): the sums' features
     m, n = weights.shape
     block = max(1, BLOCK_ELEMENTS // max(m * len(candidates), 1))
+    if detect is not None:  # whole cells of L particles a block
+        length = n // detect.shape[2]
+        block = length * max(1, round(block / length))
     sums, lows = [], []
     for lo in range(0, n, block):
         part = slice(lo, lo + block)
         s_b, low = _block_sums(a_cross @ rows[:, :2, part], a_dot @ rows[:, :3, part], feats[:, :, part], sigma,
-                               None if detect is None else detect[:, :, part])
+                               None if detect is None else detect[:, :, lo // length:(lo + block) // length])
         sums.append(s_b)
         lows.append(low)
     lows = np.array(lows, dtype=np.float64)  # (B, M, C) least squared residual per block
@@ -182,8 +236,8 @@ def bearing_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.nd
     if detect is None:  # Eq. (12) as published: every weight sum is positive
         w0, w1 = total[..., 2], total[..., [0, 1, 3, 4, 5, 6]]
         return (total[..., 7] / w0 - (w1**2).sum(-1) / w0**2).T
-    # (M, C, 8) sums under w_i (1 - p_i); a contiguous right factor keeps the product in BLAS (15x)
-    miss = ((1.0 - detect) @ np.ascontiguousarray(feats.transpose(0, 2, 1))).astype(np.float64)
+    per_cell = feats.reshape(m, 8, detect.shape[2], length).sum(axis=3).astype(np.float64)  # (M, 8, k)
+    miss = (1.0 - detect.astype(np.float64)) @ per_cell.transpose(0, 2, 1)  # (M, C, 8) under w_i (1 - p_i)
     p_miss = miss[..., 2]  # 1 - P_d
     return ((1.0 - p_miss) * _trace_of_sums(total) + p_miss * _trace_of_sums(miss)).T
 
@@ -216,15 +270,20 @@ def _block_sums(cross: np.ndarray, dot: np.ndarray, feats: np.ndarray, sigma: fl
                 detect: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """One block of particles: ``cross, dot (M, C, B)``, weighted features ``(M, 8, B)``.
     Returns the sums ``(M, C, 8)`` weighted by ``exp(-(r^2 - r_min^2) / 2 sigma^2)`` (times
-    ``detect (M, C, B)`` if given) and ``r_min^2 (M, C)``, the block's least squared residual."""
+    the detection ``detect (M, C, g)`` of the block's g cells of ``B / g`` particles if
+    given) and ``r_min^2 (M, C)``, the block's least squared residual."""
     resid = np.arctan2(cross, dot, out=cross)  # (M, C, B) signed angle: l(x_i, s) - l(mu, s) up to sign
     expo = np.square(resid, out=resid)
     low = expo.min(axis=2)
     expo -= low[..., None]  # the best-aligned particle gets exp(0): no underflow
     expo *= np.float32(-0.5 / sigma**2)
     lik = np.exp(expo, out=expo)
-    if detect is not None:
-        lik *= detect
+    if detect is None:
+        return lik @ feats.transpose(0, 2, 1), low
+    if detect.shape[2] == 1:  # one cell: its detection scales the block's sums
+        return (lik @ feats.transpose(0, 2, 1)) * detect, low
+    cells = lik.reshape(detect.shape + (-1,))  # a view: (M, C, g, B / g)
+    cells *= detect[..., None]
     return lik @ feats.transpose(0, 2, 1), low
 
 
