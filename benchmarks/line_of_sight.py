@@ -1,11 +1,12 @@
 """What line of sight costs: the UAV's decision (Eq. 12-13) and the filter's update with and without it.
 
-    python benchmarks/line_of_sight.py [--worlds osm-small,osm-medium] [--targets 8] [--particles 5000]
-                                       [--steps 5] [--repeats 30] [--json PATH]
+    python benchmarks/line_of_sight.py [--worlds osm-small,osm-medium,city-100] [--targets 8]
+                                       [--particles 5000] [--at 5,10,15] [--repeats 30] [--json PATH]
 
-Each world is imported as ``benchmarks/towns.py`` imports it (its mission has ``[sensor]
-line_of_sight = true``) and flown for ``--steps`` steps, so the clouds and the UAV are where a
-mission puts them.  Then, on that predicted belief, the decision's traces for every grid move
+Each world is made as ``benchmarks/towns.py`` makes it, with ``[sensor] line_of_sight = true``
+(an imported town's mission has it; a generated city's is turned on), and flown; at each step
+of ``--at`` the clouds and the UAV are where a mission puts them.  Then, on that predicted
+belief, the decision's traces for every grid move
 (:meth:`uavsim.belief.Belief.traces`) and one scan's likelihood for every particle
 (:meth:`uavsim.sensing.BearingModel.log_likelihood`) are timed with the mission's sensor and
 with the same sensor less line of sight, interleaved, ``--repeats`` times each (medians, one
@@ -34,21 +35,36 @@ def seconds(fn) -> float:
     return time.perf_counter() - t0
 
 
-def one_world(world: str, n: int, particles: int, steps: int, repeats: int) -> dict:
+def one_world(world: str, n: int, particles: int, at: list[int], repeats: int) -> list[dict]:
     with tempfile.TemporaryDirectory() as tmp:
-        m = load_mission(mission_file(world, n, Path(tmp)), {"filter.particles": particles})
+        m = load_mission(mission_file(world, n, Path(tmp)), {"filter.particles": particles,
+                                                             "sensor.line_of_sight": True})
     on, off = m.sensor, replace(m.sensor, line_of_sight=False, world=None)
     sim = Simulation(m, "optimized")
     sim.reset(np.random.SeedSequence(m.seed).spawn(1)[0])
-    for _ in range(steps):
+    rows = []
+    for step in range(1, max(at) + 1):
         sim.step()
+        if step in at:
+            rows.append(one_state(sim, on, off, repeats) | {"world": world, "step": step, "targets": n,
+                                                            "particles": particles, "obstacles": m.world.n_obstacles})
+            r = rows[-1]
+            print(f"{world} ({r['obstacles']} obstacles, {n} targets x {particles} particles) after {step} steps, "
+                  f"{r['candidates']} moves: decision {r['decide_ms_off']:.1f} ms without line of sight, "
+                  f"{r['decide_ms_on']:.1f} ms with (x{r['decide_ratio']:.2f}); update {r['update_ms_off']:.1f} / "
+                  f"{r['update_ms_on']:.1f} ms (x{r['update_ratio']:.2f}); {r['targets_hidden_now']} targets hidden "
+                  f"now", flush=True)
+    return rows
+
+
+def one_state(sim: Simulation, on, off, repeats: int) -> dict:
+    """The decision's and the update's times with and without line of sight, interleaved."""
     sim.prepare()  # the predicted belief the UAV decides on
     cands, ok = sim.policy.moves()
     cands = cands[ok]
     scan = on.draw(np.random.default_rng(0), sim.truth.state[:, :3], sim.policy.position)
     parts = sim.belief.pf.particles
-    row = {"world": world, "targets": n, "particles": particles, "obstacles": m.world.n_obstacles,
-           "candidates": len(cands)}
+    row = {"candidates": len(cands)}
     for sensor in (off, on):  # warm both up (first calls allocate)
         sim.belief.traces(cands, sensor)
         sensor.log_likelihood(scan, parts, sim.policy.position)
@@ -63,25 +79,21 @@ def one_world(world: str, n: int, particles: int, steps: int, repeats: int) -> d
         row[f"update_ms_{k}"] = 1e3 * float(np.median(update[k]))
     row["decide_ratio"] = row["decide_ms_on"] / row["decide_ms_off"]
     row["update_ratio"] = row["update_ms_on"] / row["update_ms_off"]
-    hidden = ~on.visible(sim.truth.state[:, :3], sim.policy.position)
-    row["targets_hidden_now"] = int(hidden.sum())
-    print(f"{world} ({row['obstacles']} obstacles, {n} targets x {particles} particles, {len(cands)} moves): "
-          f"decision {row['decide_ms_off']:.1f} ms without line of sight, {row['decide_ms_on']:.1f} ms with "
-          f"(x{row['decide_ratio']:.2f}); update {row['update_ms_off']:.1f} / {row['update_ms_on']:.1f} ms "
-          f"(x{row['update_ratio']:.2f}); {row['targets_hidden_now']} targets hidden now", flush=True)
+    row["targets_hidden_now"] = int((~on.visible(sim.truth.state[:, :3], sim.policy.position)).sum())
     return row
 
 
 def main(args) -> dict:
-    rows = [one_world(w, args.targets, args.particles, args.steps, args.repeats) for w in args.worlds.split(",")]
+    at = sorted(int(t) for t in args.at.split(","))
+    rows = [r for w in args.worlds.split(",") for r in one_world(w, args.targets, args.particles, at, args.repeats)]
     return {"rows": rows}
 
 
 if __name__ == "__main__":
     ap = parser(__doc__)
-    ap.add_argument("--worlds", default="osm-small,osm-medium")
+    ap.add_argument("--worlds", default="osm-small,osm-medium,city-100")
     ap.add_argument("--targets", type=int, default=8)
     ap.add_argument("--particles", type=int, default=5000)
-    ap.add_argument("--steps", type=int, default=5)
+    ap.add_argument("--at", default="5,10,15", help="the steps after which to time, comma-separated")
     ap.add_argument("--repeats", type=int, default=30)
     run(main, ap)
