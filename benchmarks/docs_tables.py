@@ -313,22 +313,22 @@ def tables_memory(data: dict | None) -> dict[str, str]:
                                rows) + "\n\n" + provenance(data)}
 
 
-def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None,
-                 runs: dict | None, tracked: dict | None = None, sight: dict | None = None,
-                 sight_cost: dict | None = None, budget_runs: dict | None = None,
-                 step_runs: dict | None = None, weighted_runs: dict | None = None) -> dict[str, str]:
+TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name -> JSON
+    "towns-tracking": "tracking.json", "towns-line-of-sight": "tracking-line-of-sight.json",
+    "towns-tracking-budget": "tracking-budget.json", "towns-tracking-step": "tracking-step.json",
+    "towns-tracking-weighted": "tracking-weighted.json", "towns-sight-cells": "tracking-sight-cells.json"}
+
+
+def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
+                 campaigns: dict[str, dict | None], sight_cost: dict | None = None) -> dict[str, str]:
     """Real and generated towns: the importer's cover (``osm_import.py``), budgets against
     the wall clock (``budget.py``), the plan of work's CPU (``resources.py``), guidance
-    and the closed loop in towns (``towns.py``), tracking there (``tracking.py``), with
-    and without line of sight (``tracking.py``, ``line_of_sight.py``), and with smaller
-    re-plan budgets (``tracking.py``, before and after the halves-only plans), and the
-    weighted UAV policy against Eq. (13) (``tracking.py``)."""
+    and the closed loop in towns (``towns.py``), tracking there (``tracking.py``: the
+    ``campaigns`` of :data:`TOWN_CAMPAIGNS` by block name) and what line of sight costs
+    (``line_of_sight.py``)."""
     out = {name: tracking.table(data["rows"]) + f"\n\n{data['settings']['trials']} trials of "
            f"{data['settings']['steps']} steps a variant, the same trials in every row of a world. " + provenance(data)
-           for name, data in (("towns-tracking", tracked), ("towns-line-of-sight", sight),
-                              ("towns-tracking-budget", budget_runs), ("towns-tracking-step", step_runs),
-                              ("towns-tracking-weighted", weighted_runs))
-           if data is not None}
+           for name, data in campaigns.items() if data is not None}
     if sight_cost is not None:
         rows = [[r["world"], r["obstacles"], f"{r['targets']} x {r['particles']}", r.get("step", 5), r["candidates"],
                  f"{r['decide_ms_off']:.1f}", f"{r['decide_ms_on']:.1f}", f"{r['decide_ratio']:.2f}",
@@ -428,14 +428,10 @@ def pages() -> dict[Path, dict[str, str]]:
                                                                 cities["cities-first-plans"], list(cities.values()))},
             DOCS / "results" / "worlds.md": {**tables_worlds(_load(DATA / "worlds.json")),
                                               **tables_bound_check(_load(DATA / "bound-check.json"))},
-            DOCS / "results" / "towns.md": tables_towns(_load(DATA / "osm-import.json"), _load(DATA / "budget.json"),
-                                                        _load(DATA / "plan-of-work.json"), _load(DATA / "towns.json"),
-                                                        _load(DATA / "tracking.json"),
-                                                        _load(DATA / "tracking-line-of-sight.json"),
-                                                        _load(DATA / "line-of-sight.json"),
-                                                        _load(DATA / "tracking-budget.json"),
-                                                        _load(DATA / "tracking-step.json"),
-                                                        _load(DATA / "tracking-weighted.json")),
+            DOCS / "results" / "towns.md": tables_towns(
+                _load(DATA / "osm-import.json"), _load(DATA / "budget.json"), _load(DATA / "plan-of-work.json"),
+                _load(DATA / "towns.json"), {name: _load(DATA / f) for name, f in TOWN_CAMPAIGNS.items()},
+                _load(DATA / "line-of-sight.json")),
             DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
                                                 **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
                                                                    "lookahead-clusters2")},
