@@ -128,7 +128,7 @@ def _gather(x: np.ndarray, order: np.ndarray) -> np.ndarray:
 
 
 def model_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray,
-                 sensor: MeasurementModel) -> np.ndarray:
+                 sensor: MeasurementModel, keep: int = DECISION_PARTICLES) -> np.ndarray:
     """Eq. (12)-(11) for any measurement model, and with the detection probability at each
     particle under line of sight.
 
@@ -140,13 +140,13 @@ def model_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndar
     ``P_d = sum w_i p_i``, ``Sigma_det`` the moments of the weights ``w_i p_i N(...)`` and
     ``Sigma_miss`` those of ``w_i (1 - p_i)`` (a miss tells the filter the target is
     probably hidden).  Without line of sight the detection is taken for granted, as in
-    the paper.  Clouds of more than :data:`DECISION_PARTICLES` are first thinned to that
-    many by deterministic systematic resampling (equal weights), which bounds the
-    segment tests to ``C M DECISION_PARTICLES``.
+    the paper.  Clouds of more than ``keep`` (:data:`DECISION_PARTICLES`) are first thinned
+    to that many by deterministic systematic resampling (equal weights), which bounds the
+    segment tests to ``C M keep``.
 
     Returns (C, M) float64 traces.
     """
-    particles, weights = _thinned(particles, weights, DECISION_PARTICLES)
+    particles, weights = _thinned(particles, weights, keep)
     mean = np.einsum("mn,mni->mi", weights, particles)  # (M, 6)
     centred = particles - mean[:, None, :]
     loglik = sensor.pseudo_loglik(candidates, particles, mean)  # (M, C, N)
