@@ -330,12 +330,15 @@ def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | 
            f"{data['settings']['steps']} steps a variant, the same trials in every row of a world. " + provenance(data)
            for name, data in campaigns.items() if data is not None}
     if sight_cost is not None:
-        rows = [[r["world"], r["obstacles"], f"{r['targets']} x {r['particles']}", r.get("step", 5), r["candidates"],
+        rows = [[r["world"], r["obstacles"], f"{r['targets']} x {r['particles']}", r["step"], r["candidates"],
                  f"{r['decide_ms_off']:.1f}", f"{r['decide_ms_on']:.1f}", f"{r['decide_ratio']:.2f}",
-                 f"{r['update_ms_off']:.1f}", f"{r['update_ms_on']:.1f}"] for r in sight_cost["figures"]["rows"]]
+                 f"{r['update_ms_off']:.1f}", f"{r['update_ms_on']:.1f}",
+                 "same" if r["same_move"] else f"+{100 * r['score_loss']:.2f}%", f"{r['trace_error_max']:.2f}"]
+                for r in sight_cost["figures"]["rows"]]
         out["towns-line-of-sight-cost"] = md(
             ["world", "obstacles", "targets x particles", "after steps", "moves", "decision ms, no line of sight",
-             "with", "ratio", "update ms, no line of sight", "with"], rows) + "\n\n" + provenance(sight_cost)
+             "with", "ratio", "update ms, no line of sight", "with", "move against the exact mix",
+             "largest trace error"], rows) + "\n\n" + provenance(sight_cost)
     if imported is not None:
         out["towns-import"] = osm_import.table(imported["figures"]["crops"]) + "\n\n" + provenance(imported)
     if budgets is not None:
