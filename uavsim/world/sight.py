@@ -22,7 +22,8 @@ because of two facts about a convex obstacle O and a point p (a ground target):
 
 The segments left (a pair of point and obstacle neither fact settles) are tested by
 :meth:`~uavsim.world.World.meets`, as :meth:`~uavsim.world.World.segment_blocked` tests
-them.  The verdicts are the same as that method's: the two facts hold exactly, the culls
+them, for the observers in a direction from p (on the ground) that the footprint spans: the
+segment to any other misses it.  The verdicts are the same as that method's: the two facts hold exactly, the culls
 keep a margin of :data:`MARGIN_M`, and only a segment that touches an obstacle within
 rounding could come out differently.
 """
@@ -59,11 +60,9 @@ def fans_blocked(world, observers: np.ndarray, points: np.ndarray) -> np.ndarray
     out[:, hidden] = True
     rest = ~hidden[pt]
     pt, ob = pt[rest], ob[rest]
-    c = len(observers)
-    a = np.broadcast_to(observers, (len(pt), c, 3)).reshape(-1, 3)
-    d = (points[pt, None, :] - observers[None]).reshape(-1, 3)
-    pair, obs = np.nonzero(world.meets(np.repeat(ob, c), a, d).reshape(-1, c))
-    out[obs, pt[pair]] = True
+    pair, obs = np.nonzero(_within_span(world, observers, points[pt, :2], ob, hull))
+    hit = world.meets(ob[pair], observers[obs], points[pt[pair]] - observers[obs])
+    out[obs[hit], pt[pair[hit]]] = True
     return out
 
 
@@ -145,13 +144,41 @@ def _apart_by_wedge(world, hull: np.ndarray, p: np.ndarray, ob: np.ndarray) -> n
 def _spans_hull(world, hull: np.ndarray, p: np.ndarray, ob: np.ndarray) -> np.ndarray:
     """bool per pair: seen from ``p (Q, 2)`` on the ground, obstacle ``ob``'s footprint
     spans every direction to the hull ``(V, 2)`` (or surrounds p), as it must to hide p from
-    all of the hull; a footprint wholly on one side of p has an angular span under pi."""
-    ref = np.arctan2(hull[:, 1].mean() - p[:, 1], hull[:, 0].mean() - p[:, 0])[:, None]  # (Q, 1)
-    to_hull = (np.arctan2(hull[:, 1] - p[:, 1:], hull[:, 0] - p[:, :1]) - ref + np.pi) % (2 * np.pi) - np.pi
-    v = world.footprints.vertices[ob]  # (Q, F, 2)
-    to_foot = (np.arctan2(v[..., 1] - p[:, 1:], v[..., 0] - p[:, :1]) - ref + np.pi) % (2 * np.pi) - np.pi
-    lo, hi = to_foot.min(axis=1), to_foot.max(axis=1)
+    all of the hull."""
+    ref = _toward(hull, p)
+    lo, hi = _span(world, p, ob, ref)
+    to_hull = _turn(p, hull, ref)
     return (hi - lo >= np.pi) | ((lo <= to_hull.min(axis=1) + 1e-9) & (hi >= to_hull.max(axis=1) - 1e-9))
+
+
+def _within_span(world, observers: np.ndarray, p: np.ndarray, ob: np.ndarray, hull: np.ndarray) -> np.ndarray:
+    """``(Q, C)`` bool: observer c lies, seen from ``p (Q, 2)`` on the ground, in a direction
+    obstacle ``ob``'s footprint spans (or right above p, or the footprint surrounds p): the
+    only observers whose segment to p the obstacle can meet."""
+    ref = _toward(observers[hull, :2], p)
+    lo, hi = _span(world, p, ob, ref)
+    to_obs = _turn(p, observers[:, :2], ref)  # (Q, C)
+    above = np.all(observers[None, :, :2] == p[:, None], axis=2)
+    return (hi - lo >= np.pi)[:, None] | ((to_obs >= lo[:, None] - 1e-9) & (to_obs <= hi[:, None] + 1e-9)) | above
+
+
+def _toward(hull: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """``(Q, 1)``: the direction from each ``p (Q, 2)`` to the centre of the hull ``(V, 2)``."""
+    return np.arctan2(hull[:, 1].mean() - p[:, 1], hull[:, 0].mean() - p[:, 0])[:, None]
+
+
+def _turn(p: np.ndarray, xy: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """Directions from ``p (Q, 2)`` to ``xy`` (``(K, 2)``, or ``(Q, K, 2)``) as angles from
+    ``ref (Q, 1)`` in [-pi, pi): ``(Q, K)``."""
+    return (np.arctan2(xy[..., 1] - p[:, 1:], xy[..., 0] - p[:, :1]) - ref + np.pi) % (2 * np.pi) - np.pi
+
+
+def _span(world, p: np.ndarray, ob: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(lo, hi)`` per pair: the least and largest direction (from ``ref``) from ``p`` to a
+    corner of obstacle ``ob``'s footprint; ``hi - lo`` is under pi only where the footprint
+    lies wholly on one side of p, and then every direction into it is between them."""
+    turn = _turn(p, world.footprints.vertices[ob], ref)
+    return turn.min(axis=1), turn.max(axis=1)
 
 
 def _blocked_from_hull(world, hull: np.ndarray, points: np.ndarray, pt: np.ndarray, ob: np.ndarray) -> np.ndarray:
