@@ -226,6 +226,23 @@ def _random_prisms(seed: int) -> World:
     return World.of_prisms("w", np.zeros(3), np.full(3, 200.0), footprints, z, [f"o{i}" for i in range(12)], ())
 
 
+
+def test_fans_under_the_moves_see_behind_the_point():
+    """A point under the grid of moves near its north edge, and a 50 m block just north-east
+    of it: the move at (105, 120) is hidden (its segment crosses the block 2-3 m from the
+    point, under 27 m up), though, seen from the point, the block lies wholly outside the
+    directions to the grid's hull corners (the point is inside the hull: the fan has no
+    wedge to part them).  fans_blocked gives segment_blocked's verdicts."""
+    w = World("block", np.zeros(3), np.full(3, 200.0), np.array([[101.0, 119.0, 0.0]]),
+              np.array([[106.0, 124.0, 50.0]]), ("block",), ())
+    grid = np.stack(np.meshgrid(np.arange(-20, 21, 5.0), np.arange(-20, 21, 5.0)), -1).reshape(-1, 2)
+    moves = np.column_stack([100.0 + grid, np.full(len(grid), 40.0)])
+    point = np.array([[100.0, 117.0, 0.0]])
+    want = w.segment_blocked(moves[:, None], point[None])[:, 0]
+    assert want[np.all(moves[:, :2] == [105.0, 120.0], axis=1)].all() and want.sum() < 4
+    np.testing.assert_array_equal(w.fans_blocked(moves, point)[:, 0], want)
+
+
 def test_segment_blocked_equals_the_exact_clip_of_every_face():
     """The two-phase test (boxes, circles over the segment's part at obstacle heights, then the
     footprint's sides) gives the verdict of Cyrus-Beck against all faces of every obstacle, for

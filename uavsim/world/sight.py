@@ -45,22 +45,23 @@ def fans_blocked(world, observers: np.ndarray, points: np.ndarray) -> np.ndarray
     if world.n_obstacles == 0 or out.size == 0:
         return out
     hull = hull_rows(observers)
-    pt, ob = _pairs_near(world, observers, points, hull)
+    fan = _Fan(observers[hull, :2], points[:, :2])
+    pt, ob, lo, hi = _pairs_near(world, observers, points, hull, fan)
     if not len(pt):
         return out
     if len(hull) == len(observers):  # the hull's verdicts are every observer's
         pair, vertex = np.nonzero(_blocked_from_hull(world, observers[hull], points, pt, ob))
         out[hull[vertex], pt[pair]] = True
         return out
-    may = _spans_hull(world, observers[hull, :2], points[pt, :2], ob)
+    may = fan.spanned(pt, lo, hi)  # the footprint spans every direction to the hull, as it must to hide p from it
     full = np.zeros(len(pt), dtype=bool)
     full[may] = _blocked_from_hull(world, observers[hull], points, pt[may], ob[may]).all(axis=1)
     hidden = np.zeros(len(points), dtype=bool)
     hidden[pt[full]] = True
     out[:, hidden] = True
     rest = ~hidden[pt]
-    pt, ob = pt[rest], ob[rest]
-    pair, obs = np.nonzero(_within_span(world, observers, points[pt, :2], ob, hull))
+    pt, ob, lo, hi = pt[rest], ob[rest], lo[rest], hi[rest]
+    pair, obs = np.nonzero(fan.within(observers[:, :2], pt, lo, hi))
     hit = world.meets(ob[pair], observers[obs], points[pt[pair]] - observers[obs])
     out[obs[hit], pt[pair[hit]]] = True
     return out
@@ -93,9 +94,10 @@ def heights(observers: np.ndarray, zp: np.ndarray, bottom: np.ndarray, top: np.n
     return t_min, t_max
 
 
-def _pairs_near(world, observers: np.ndarray, points: np.ndarray, hull: np.ndarray):
-    """``(pt, ob)``: the (point, obstacle) pairs no separating axis parts (module
-    docstring), the capsule test first."""
+def _pairs_near(world, observers: np.ndarray, points: np.ndarray, hull: np.ndarray, fan: "_Fan"):
+    """``(pt, ob, lo, hi)``: the (point, obstacle) pairs no separating axis parts (module
+    docstring), the capsule test first, and the directions their footprints span
+    (:meth:`_Fan.span`)."""
     centre, radius = world.circles
     c0 = 0.5 * (observers[:, :2].min(axis=0) + observers[:, :2].max(axis=0))
     reach = np.sqrt(((observers[:, :2] - c0) ** 2).sum(axis=1).max())
@@ -108,8 +110,9 @@ def _pairs_near(world, observers: np.ndarray, points: np.ndarray, hull: np.ndarr
     pt, ob = np.nonzero((t_min <= t_max) & (t_max >= 0) & (gap <= (radius + t_max * reach + MARGIN_M) ** 2))
     keep = ~_apart_by_sides(world, observers[hull, :2], points[pt, :2], ob, t_min[pt, ob], t_max[pt, ob])
     pt, ob = pt[keep], ob[keep]
-    keep = ~_apart_by_wedge(world, observers[hull, :2], points[pt, :2], ob)
-    return pt[keep], ob[keep]
+    lo, hi = fan.span(world.footprints.vertices[ob], pt)
+    keep = ~fan.apart(pt, lo, hi)
+    return pt[keep], ob[keep], lo[keep], hi[keep]
 
 
 def _apart_by_sides(world, hull: np.ndarray, p: np.ndarray, ob: np.ndarray, t_min: np.ndarray,
@@ -126,59 +129,53 @@ def _apart_by_sides(world, hull: np.ndarray, p: np.ndarray, ob: np.ndarray, t_mi
     return np.any(low > fp.offsets[ob] + MARGIN_M, axis=1)
 
 
-def _apart_by_wedge(world, hull: np.ndarray, p: np.ndarray, ob: np.ndarray) -> np.ndarray:
-    """bool per pair: the footprint lies wholly beyond one side of the wedge from p round
-    the hull (module docstring); never where p is in the hull (no wedge)."""
-    rel = hull[None] - p[:, None]  # (Q, V, 2)
-    centre = hull.mean(axis=0)
-    ref = np.arctan2(centre[1] - p[:, 1], centre[0] - p[:, 0])
-    turn = (np.arctan2(rel[..., 1], rel[..., 0]) - ref[:, None] + np.pi) % (2 * np.pi) - np.pi  # (Q, V)
-    apart = np.zeros(len(p), dtype=bool)
-    v_x, v_y = world.footprints.vertices[ob, :, 0], world.footprints.vertices[ob, :, 1]
-    for angle, side in ((ref + turn.min(axis=1), -1.0), (ref + turn.max(axis=1), 1.0)):
-        out_x, out_y = -side * np.sin(angle), side * np.cos(angle)  # the side's normal, away from the wedge
-        apart |= np.min(out_x[:, None] * (v_x - p[:, :1]) + out_y[:, None] * (v_y - p[:, 1:]), axis=1) > MARGIN_M
-    return apart & (turn.max(axis=1) - turn.min(axis=1) < np.pi)
+class _Fan:
+    """Directions on the ground from each point ``(P, 2)`` as angles in [-pi, pi) from the
+    direction to the centre of the observers' hull ``(V, 2)``, and the hull's interval of
+    them: ``[lo, hi]`` per point, a wedge only where ``hi - lo < pi`` (p outside the hull).
+    A footprint's directions from p (:meth:`span`) form an interval of width under pi only
+    where the footprint lies wholly on one side of p; then every direction into it is
+    within it.  Intervals are compared with a margin of ``TURN_MARGIN`` rad."""
 
+    TURN_MARGIN = 1e-9
 
-def _spans_hull(world, hull: np.ndarray, p: np.ndarray, ob: np.ndarray) -> np.ndarray:
-    """bool per pair: seen from ``p (Q, 2)`` on the ground, obstacle ``ob``'s footprint
-    spans every direction to the hull ``(V, 2)`` (or surrounds p), as it must to hide p from
-    all of the hull."""
-    ref = _toward(hull, p)
-    lo, hi = _span(world, p, ob, ref)
-    to_hull = _turn(p, hull, ref)
-    return (hi - lo >= np.pi) | ((lo <= to_hull.min(axis=1) + 1e-9) & (hi >= to_hull.max(axis=1) - 1e-9))
+    def __init__(self, hull: np.ndarray, points: np.ndarray):
+        self.points = points
+        self.ref = np.arctan2(hull[:, 1].mean() - points[:, 1], hull[:, 0].mean() - points[:, 0])[:, None]  # (P, 1)
+        turn = self.turn(hull, np.arange(len(points)))
+        self.lo, self.hi = turn.min(axis=1), turn.max(axis=1)
 
+    def turn(self, xy: np.ndarray, pt: np.ndarray) -> np.ndarray:
+        """``(Q, K)``: directions from ``points[pt]`` to ``xy`` (``(K, 2)`` or ``(Q, K, 2)``)."""
+        p = self.points[pt]
+        return (np.arctan2(xy[..., 1] - p[:, 1:], xy[..., 0] - p[:, :1]) - self.ref[pt] + np.pi) % (2 * np.pi) - np.pi
 
-def _within_span(world, observers: np.ndarray, p: np.ndarray, ob: np.ndarray, hull: np.ndarray) -> np.ndarray:
-    """``(Q, C)`` bool: observer c lies, seen from ``p (Q, 2)`` on the ground, in a direction
-    obstacle ``ob``'s footprint spans (or right above p, or the footprint surrounds p): the
-    only observers whose segment to p the obstacle can meet."""
-    ref = _toward(observers[hull, :2], p)
-    lo, hi = _span(world, p, ob, ref)
-    to_obs = _turn(p, observers[:, :2], ref)  # (Q, C)
-    above = np.all(observers[None, :, :2] == p[:, None], axis=2)
-    return (hi - lo >= np.pi)[:, None] | ((to_obs >= lo[:, None] - 1e-9) & (to_obs <= hi[:, None] + 1e-9)) | above
+    def span(self, corners: np.ndarray, pt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(lo, hi)`` per pair: the least and largest direction from ``points[pt]`` to the
+        footprint ``corners (Q, F, 2)``."""
+        turn = self.turn(corners, pt)
+        return turn.min(axis=1), turn.max(axis=1)
 
+    def apart(self, pt: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """bool per pair: the footprint's directions miss the wedge (module docstring: a
+        side of the wedge parts them)."""
+        m = self.TURN_MARGIN
+        both = (self.hi[pt] - self.lo[pt] < np.pi) & (hi - lo < np.pi)
+        return both & ((hi < self.lo[pt] - m) | (lo > self.hi[pt] + m))
 
-def _toward(hull: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """``(Q, 1)``: the direction from each ``p (Q, 2)`` to the centre of the hull ``(V, 2)``."""
-    return np.arctan2(hull[:, 1].mean() - p[:, 1], hull[:, 0].mean() - p[:, 0])[:, None]
+    def spanned(self, pt: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """bool per pair: the footprint spans every direction to the hull (or surrounds p)."""
+        m = self.TURN_MARGIN
+        return (hi - lo >= np.pi) | ((lo <= self.lo[pt] + m) & (hi >= self.hi[pt] - m))
 
-
-def _turn(p: np.ndarray, xy: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """Directions from ``p (Q, 2)`` to ``xy`` (``(K, 2)``, or ``(Q, K, 2)``) as angles from
-    ``ref (Q, 1)`` in [-pi, pi): ``(Q, K)``."""
-    return (np.arctan2(xy[..., 1] - p[:, 1:], xy[..., 0] - p[:, :1]) - ref + np.pi) % (2 * np.pi) - np.pi
-
-
-def _span(world, p: np.ndarray, ob: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(lo, hi)`` per pair: the least and largest direction (from ``ref``) from ``p`` to a
-    corner of obstacle ``ob``'s footprint; ``hi - lo`` is under pi only where the footprint
-    lies wholly on one side of p, and then every direction into it is between them."""
-    turn = _turn(p, world.footprints.vertices[ob], ref)
-    return turn.min(axis=1), turn.max(axis=1)
+    def within(self, observers: np.ndarray, pt: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """``(Q, C)`` bool: observer c (``(C, 2)`` on the ground) lies in a direction from
+        ``points[pt]`` that the footprint spans, or right above the point, or the footprint
+        surrounds it: the only observers whose segment to the point it can meet."""
+        m = self.TURN_MARGIN
+        to_obs = self.turn(observers, pt)
+        above = np.all(observers[None] == self.points[pt, None], axis=2)
+        return (hi - lo >= np.pi)[:, None] | ((to_obs >= lo[:, None] - m) & (to_obs <= hi[:, None] + m)) | above
 
 
 def _blocked_from_hull(world, hull: np.ndarray, points: np.ndarray, pt: np.ndarray, ob: np.ndarray) -> np.ndarray:
