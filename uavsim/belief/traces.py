@@ -110,14 +110,15 @@ def cell_detection(candidates: np.ndarray, particles: np.ndarray, weights: np.nd
 
 def _principal(xy: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(u, v)``: positions ``xy (M, N, 2)`` along and across each cloud's principal axis
-    (of its weighted covariance), about its weighted mean; ``(M, N)`` each."""
-    x, y = np.ascontiguousarray(xy[..., 0]), np.ascontiguousarray(xy[..., 1])  # strided views read once
-    x -= np.einsum("mn,mn->m", weights, x)[:, None]
-    y -= np.einsum("mn,mn->m", weights, y)[:, None]
-    wx, wy = weights * x, weights * y
-    cov = np.stack([np.einsum("mn,mn->m", wx, x), np.einsum("mn,mn->m", wx, y), np.einsum("mn,mn->m", wy, y)], -1)
-    _, axes = np.linalg.eigh(cov[:, [0, 1, 1, 2]].reshape(-1, 2, 2))  # (M, 2, 2), ascending
-    return (x * axes[:, :1, 1] + y * axes[:, 1:, 1]), (x * axes[:, :1, 0] + y * axes[:, 1:, 0])
+    (of its weighted covariance), about its weighted mean; ``(M, N)`` float32 each (they
+    only sort the particles into cells)."""
+    x, y, w = xy[..., 0].astype(np.float32), xy[..., 1].astype(np.float32), weights.astype(np.float32)
+    x -= (w * x).sum(axis=1, keepdims=True)
+    y -= (w * y).sum(axis=1, keepdims=True)
+    wx, wy = w * x, w * y
+    cov = np.stack([(wx * x).sum(axis=1), (wx * y).sum(axis=1), (wy * y).sum(axis=1)], -1).astype(np.float64)
+    axes = np.linalg.eigh(cov[:, [0, 1, 1, 2]].reshape(-1, 2, 2))[1].astype(np.float32)  # (M, 2, 2), ascending
+    return x * axes[:, :1, 1] + y * axes[:, 1:, 1], x * axes[:, :1, 0] + y * axes[:, 1:, 0]
 
 
 def _gather(x: np.ndarray, order: np.ndarray) -> np.ndarray:
