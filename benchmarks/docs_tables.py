@@ -316,7 +316,8 @@ def tables_memory(data: dict | None) -> dict[str, str]:
 TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name -> JSON
     "towns-tracking": "tracking.json", "towns-line-of-sight": "tracking-line-of-sight.json",
     "towns-tracking-budget": "tracking-budget.json", "towns-tracking-step": "tracking-step.json",
-    "towns-tracking-weighted": "tracking-weighted.json", "towns-sight-cells": "tracking-sight-cells.json"}
+    "towns-tracking-weighted": "tracking-weighted.json", "towns-sight-cells": "tracking-sight-cells.json",
+    "towns-tracking-step-grid": "tracking-step-grid.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
