@@ -451,7 +451,7 @@ class World:
 
         return fans_blocked(self, observers, points)
 
-    def _clip(self, o: int, a: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _clip(self, o, a: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Segments ``a + t d`` (``(P, 3)`` each), ``t`` in [0, 1], against obstacle ``o`` (one
         index, or one per segment): the indices ``q`` of those that pass within its circle
         over their part at its heights, and for them the interval ``[s_lo, s_hi]`` of ``t``
