@@ -33,6 +33,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
+from ..sensing import wrap_angle
+
 MARGIN_M = 1e-7  # a separating axis must part the two sets by this much (rounding)
 
 
@@ -130,7 +132,7 @@ def _apart_by_sides(world, hull: np.ndarray, p: np.ndarray, ob: np.ndarray, t_mi
 
 
 class _Fan:
-    """Directions on the ground from each point ``(P, 2)`` as angles in [-pi, pi) from the
+    """Directions on the ground from each point ``(P, 2)`` as angles in (-pi, pi] from the
     direction to the centre of the observers' hull ``(V, 2)``, and the hull's interval of
     them: ``[lo, hi]`` per point, a wedge only where ``hi - lo < pi`` (p outside the hull).
     A footprint's directions from p (:meth:`span`) form an interval of width under pi only
@@ -148,7 +150,7 @@ class _Fan:
     def turn(self, xy: np.ndarray, pt: np.ndarray) -> np.ndarray:
         """``(Q, K)``: directions from ``points[pt]`` to ``xy`` (``(K, 2)`` or ``(Q, K, 2)``)."""
         p = self.points[pt]
-        return (np.arctan2(xy[..., 1] - p[:, 1:], xy[..., 0] - p[:, :1]) - self.ref[pt] + np.pi) % (2 * np.pi) - np.pi
+        return wrap_angle(np.arctan2(xy[..., 1] - p[:, 1:], xy[..., 0] - p[:, :1]) - self.ref[pt])
 
     def span(self, corners: np.ndarray, pt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(lo, hi)`` per pair: the least and largest direction from ``points[pt]`` to the
