@@ -83,7 +83,7 @@ def hull_rows(observers: np.ndarray) -> np.ndarray:
         return np.arange(len(observers))
 
 
-def heights(observers: np.ndarray, zp: np.ndarray, bottom: np.ndarray, top: np.ndarray):
+def _heights(observers: np.ndarray, zp: np.ndarray, bottom: np.ndarray, top: np.ndarray):
     """``(t_min, t_max)``: the parameters ``t`` (0 at the point, 1 at an observer) at which
     any observer's segment from a point at height ``zp`` can be between heights ``bottom``
     and ``top`` (an obstacle's; all three broadcast); ``[0, 1]`` unless every observer is
@@ -103,7 +103,7 @@ def _pairs_near(world, observers: np.ndarray, points: np.ndarray, hull: np.ndarr
     centre, radius = world.circles
     c0 = 0.5 * (observers[:, :2].min(axis=0) + observers[:, :2].max(axis=0))
     reach = np.sqrt(((observers[:, :2] - c0) ** 2).sum(axis=1).max())
-    t_min, t_max = heights(observers, points[:, 2:], world.obstacle_lo[None, :, 2], world.obstacle_hi[None, :, 2])
+    t_min, t_max = _heights(observers, points[:, 2:], world.obstacle_lo[None, :, 2], world.obstacle_hi[None, :, 2])
     ax_x, ax_y = c0[0] - points[:, :1], c0[1] - points[:, 1:2]  # (P, 1): from the point to the observers' centre
     rel_x, rel_y = centre[:, 0] - points[:, :1], centre[:, 1] - points[:, 1:2]  # (P, O)
     along = ax_x * ax_x + ax_y * ax_y
