@@ -508,3 +508,26 @@ def test_fewer_trials_than_the_folder_holds_says_so(made, tmp_path, capsys):
     assert (f"reusing the finished campaign in {out} (1 trials, same mission and arguments); the summary takes its "
             "first 1 of the 2 trials there; pass --fresh to run it again") in said, said
     assert json.loads((out / "summary.json").read_text())["trials"] == 1
+
+
+def test_the_calibrated_reference_is_kept_and_older_trial_files_still_sum(tmp_path):
+    """Each trial keeps the NEES of 8 draws from its beliefs a step; the summary's position
+    NEES carries the calibrated filter's figures (its per-step average over draws of one
+    trial's 4 targets is their mean).  A trial file written before the draws were kept
+    (no ``nees_ref``) is still summed, without them."""
+    m = small(trials=2, steps=2)
+    s = run_campaign(m, "optimized", out=tmp_path / "c", workers=1)
+    trials = list(load_trials(tmp_path / "c" / "trials", range(2)).values())
+    assert all(r.nees_ref.shape == (2, 4, campaign.REFERENCE_DRAWS) for r in trials)
+    c = s["nees"]["pos"]["calibrated"]
+    expect = np.stack([r.nees_ref for r in trials]).mean(axis=(0, 2, 3))
+    np.testing.assert_allclose(c["mean"], expect)
+    assert 0.0 <= c["inside_range"][0] <= c["inside"] <= c["inside_range"][1] <= 1.0
+    path = tmp_path / "c" / "trials" / "trial-00001.npz"
+    with np.load(path) as z:
+        kept = {k: z[k] for k in z.files if k != "nees_ref"}
+    buf = io.BytesIO()
+    np.savez(buf, **kept)
+    path.write_bytes(buf.getvalue())
+    again = run_campaign(m, "optimized", out=tmp_path / "c", workers=1, resume=True)
+    assert "calibrated" not in again["nees"]["pos"] and again["rmse"] == s["rmse"]

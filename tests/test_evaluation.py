@@ -102,6 +102,39 @@ def test_credible_level_is_uniform_for_a_calibrated_heavy_tailed_belief():
     assert np.median(nees) < 0.5 * stats.chi2.median(2)
 
 
+def test_the_calibrated_reference_by_hand():
+    """Two draws of a reference over 4 steps: draw 0 sits at 2.0 (inside the band of n = 10
+    at every step), draw 1 at 10.0 on steps 0-1 (above) and 2.0 after: shares 1 and 0.5,
+    so the calibrated filter is inside at 75% of steps (50%-100%), its per-step average
+    6, 6, 2, 2."""
+    ref = np.full((2, 4, 5, 2), 2.0)
+    ref[:, :2, :, 1] = 10.0
+    c = metrics.consistency(np.full((2, 4, 5), 2.0), 2, reference=ref)["calibrated"]
+    assert c["inside"] == pytest.approx(0.75) and c["inside_range"] == [0.5, 1.0] and c["draws"] == 2
+    np.testing.assert_allclose(c["mean"], [6.0, 6.0, 2.0, 2.0])
+    assert "calibrated" not in metrics.consistency(np.full((2, 4, 5), 2.0), 2)
+
+
+def test_a_calibrated_heavy_tailed_belief_leaves_the_chi_square_band_more_often():
+    """Truths that follow their beliefs exactly, 80 a step (10 trials x 8 targets, as the
+    towns benchmark), 400 steps, 4 draws.  Gaussian beliefs: inside the chi-square band at
+    95% of steps (binomial s.e. 0.55% over 1600 step-draws; 4 s.e.).  The 90% N(0, I) /
+    10% N(0, 25 I) mixture, covariance 3.4 I: the NEES still averages 2 (4 s.e. of
+    sqrt(39.9 / 32 000)), but its variance is 39.9 against chi-square(2)'s 4, so the
+    per-step average of 80 (s.d. 0.71 against the band's half-width of about 0.44) is
+    inside at about 46% of steps (normal approximation); asserted below 70%."""
+    rng = np.random.default_rng(5)
+    shape = (10, 400, 8, 4)
+    gauss = metrics.nees(rng.standard_normal((*shape, 2)), np.eye(2))
+    c = metrics.consistency(gauss[..., 0], 2, reference=gauss)["calibrated"]
+    assert abs(c["inside"] - 0.95) < 4 * np.sqrt(0.95 * 0.05 / 1600)
+    scale = np.where(rng.random(shape) < 0.9, 1.0, 5.0)
+    mixed = metrics.nees(rng.standard_normal((*shape, 2)) * scale[..., None], 3.4 * np.eye(2))
+    assert abs(mixed.mean() - 2.0) < 4 * np.sqrt(39.9 / mixed.size)
+    c = metrics.consistency(mixed[..., 0], 2, reference=mixed)["calibrated"]
+    assert c["inside"] < 0.7
+
+
 def test_paired_t_by_hand():
     """Differences (1, 2, 3): mean 2, sd 1, t = 2 / (1 / sqrt 3) = 2 sqrt 3."""
     np.testing.assert_allclose(metrics.paired_t([0, 0, 0], [1, 2, 3]), 2 * np.sqrt(3), rtol=1e-14)

@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from uavsim.belief.gaussian import GaussianBelief
 from uavsim.belief.particle import (
     ParticleBelief,
     ParticleFilter,
@@ -322,3 +323,28 @@ def test_noise_levels_scale_each_particles_noise_and_follow_resampling():
     pf.switch = 1.0
     pf.predict(rng, np.eye(6), np.zeros((6, 3)), np.eye(6), np.zeros((1, 3)))
     assert abs(np.mean(pf.mode == 0) - 0.5) < 0.02
+
+
+def test_a_draw_from_the_belief_picks_particles_by_weight():
+    """Weights 0.5, 0.3, 0.2, 0 on four particles (and one target of weight 1 on its
+    last): 40 000 draws pick each at its weight within 4 binomial s.e. (at most 0.0025),
+    never the weightless one; a Gaussian belief's draws have its mean and covariance
+    (4 s.e. of 40 000 draws; the covariance's worst relative s.e. is its cross term's,
+    sqrt((100 x 25 + 30^2) / k) / 30 = 1%) though its z block is 1e-10."""
+    particles = np.arange(2 * 4 * 6, dtype=float).reshape(2, 4, 6)
+    logw = np.log(np.array([[0.5, 0.3, 0.2, 1e-300], [1e-300, 1e-300, 1e-300, 1.0]]))
+    belief = ParticleBelief(np.random.default_rng(0), np.zeros((2, 6)), np.tile(np.eye(6), (2, 1, 1)), 4, 0.5, 0.0,
+                            ("A", "B"))
+    belief.pf.particles, belief.pf.logw = particles, logw
+    k = 40_000
+    got = belief.draw(np.random.default_rng(1), k)
+    assert got.shape == (2, k, 6)
+    share = (got[0, :, 0][:, None] == particles[0, :, 0]).mean(axis=0)
+    np.testing.assert_allclose(share, [0.5, 0.3, 0.2, 0.0], atol=4 * np.sqrt(0.25 / k))
+    assert (got[1] == particles[1, 3]).all()
+    cov = np.diag([100.0, 25.0, 1e-10, 4.0, 1.0, 1e-10])
+    cov[0, 1] = cov[1, 0] = 30.0
+    gauss = GaussianBelief("plkf", np.array([[10.0, -5.0, 0.0, 1.0, 2.0, 0.0]]), cov[None], 16.0, ("A",))
+    x = gauss.draw(np.random.default_rng(2), k)[0]
+    np.testing.assert_allclose(x.mean(axis=0)[:2], [10.0, -5.0], atol=4 * np.sqrt(100.0 / k))
+    np.testing.assert_allclose(np.cov(x[:, :2].T), cov[:2, :2], rtol=0.04)  # relative s.e. <= 1% (sqrt(3400 / k) / 30)

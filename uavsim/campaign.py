@@ -104,7 +104,10 @@ class TrialResult:
     ``(steps, M, 6)``, sensor positions ``(steps, S, 3)`` and the planned truth's
     sensitivity to its start ``(steps, M, 4, 4)`` (``(0,)`` for a stochastic truth);
     ``collisions``: truth steps that touched an obstacle (:attr:`uavsim.truth.Truth.collisions`);
-    ``level``: the truth's credible level in the belief ``(steps, M)`` (:func:`uavsim.metrics.credible_level`)."""
+    ``level``: the truth's credible level in the belief ``(steps, M)`` (:func:`uavsim.metrics.credible_level`);
+    ``nees_ref``: the position NEES of :data:`REFERENCE_DRAWS` states drawn from each belief
+    ``(steps, M, draws)``, a calibrated filter's with these beliefs (:func:`uavsim.metrics.consistency`;
+    None in trial files written before it was kept)."""
 
     index: int
     err2: np.ndarray
@@ -119,7 +122,9 @@ class TrialResult:
     sensitivity: np.ndarray
     collisions: int = 0
     level: np.ndarray | None = None
+    nees_ref: np.ndarray | None = None
 
+REFERENCE_DRAWS = 8  # states drawn from each belief per step for the calibrated reference of the NEES
 
 class trial_seeds:  # noqa: N801 (a lazy list)
     """``SeedSequence(seed).spawn(trials)`` without spawning them all: item k is the k-th
@@ -268,8 +273,8 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
         info = sim.reset(seed)
         if on_step:
             on_step(info)
-        err2, trace, nees_pos, nees_state, secs, statuses, events, truth, observers, sens, level = (
-            [], [], [], [], [], {}, [], [], [], [], [])
+        err2, trace, nees_pos, nees_state, secs, statuses, events, truth, observers, sens, level, ref = (
+            [], [], [], [], [], {}, [], [], [], [], [], [])
         for _ in range(mission.steps):
             info = sim.step()
             if on_step:
@@ -279,6 +284,7 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
             nees_pos.append(metrics.state_nees(info.mean, info.cov, info.truth, metrics.POS))
             nees_state.append(metrics.state_nees(info.mean, info.cov, info.truth, metrics.STATE))
             level.append(sim.belief.credible_level(info.truth, info.mean, info.cov))
+            ref.append(metrics.draws_nees(info.mean, info.cov, sim.belief.draw(sim.rng_check, REFERENCE_DRAWS)))
             secs.append([info.seconds[k] for k in STAGES])
             truth.append(info.truth)
             observers.append(info.observers)
@@ -289,7 +295,7 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
             events += [f"step {info.t}: {e}" for e in info.events if not e.startswith("resampled")]
     return TrialResult(index, np.array(err2), np.array(trace), np.array(nees_pos), np.array(nees_state),
                        np.array(secs), statuses, tuple(events), np.stack(truth), np.stack(observers),
-                       np.array(sens), sim.truth.collisions, np.array(level))
+                       np.array(sens), sim.truth.collisions, np.array(level), np.array(ref))
 
 
 _GUIDANCE: dict[str, Guidance] = {}  # per process: build each mission's models once (kept_guidance)
@@ -391,11 +397,12 @@ def _fingerprinted(mission: Mission, planner: str) -> Mission:
     return mission
 
 
-NUMBERS = ("err2", "trace", "nees_pos", "nees_state", "seconds", "truth", "observers", "sensitivity", "level")
+NUMBERS = ("err2", "trace", "nees_pos", "nees_state", "seconds", "truth", "observers", "sensitivity", "level",
+           "nees_ref")
 
 
 def _not_finite(r: TrialResult) -> list[str]:
-    return [name for name in NUMBERS if not np.isfinite(getattr(r, name)).all()]
+    return [name for name in NUMBERS if getattr(r, name) is not None and not np.isfinite(getattr(r, name)).all()]
 
 
 def save_trial(folder: Path, r: TrialResult, key: str) -> None:
@@ -415,7 +422,8 @@ def save_trial(folder: Path, r: TrialResult, key: str) -> None:
                                 "trial_key": key, "format": FORMAT}))
     np.savez(buf, index=r.index, err2=r.err2, trace=r.trace, nees_pos=r.nees_pos, nees_state=r.nees_state,
              seconds=r.seconds, truth=r.truth, observers=r.observers,
-             sensitivity=r.sensitivity, level=r.level, meta=meta)
+             sensitivity=r.sensitivity, level=r.level, meta=meta,
+             **({} if r.nees_ref is None else {"nees_ref": r.nees_ref}))
     write_atomic(folder / f"trial-{r.index:05d}.npz", buf.getvalue())
 
 
@@ -431,7 +439,8 @@ def _read_trial(path: Path, k: int, key: str | None) -> TrialResult:
             meta = json.loads(str(z["meta"]))
             r = TrialResult(int(z["index"]), z["err2"], z["trace"], z["nees_pos"], z["nees_state"],
                             z["seconds"], meta["statuses"], tuple(meta["events"]), z["truth"],
-                            z["observers"], z["sensitivity"], meta.get("collisions", 0), z["level"])
+                            z["observers"], z["sensitivity"], meta.get("collisions", 0), z["level"],
+                            z["nees_ref"] if "nees_ref" in z.files else None)
     except Exception as exc:  # noqa: BLE001 (a damaged zip or array raises any of a dozen types, e.g.
         # NotImplementedError for a flipped version byte, found by the random-damage test)
         raise _Unusable(f"not a readable trial file ({type(exc).__name__}: {exc})") from None
@@ -973,7 +982,8 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "pcrlb_q2": None if bound is None else bound.q2,
         **_bound_errors(mission, bound, err2),
         "mean_trace": np.stack([r.trace for r in results]).mean(axis=0).T.tolist(),
-        "nees": {"pos": metrics.consistency(np.stack([r.nees_pos for r in results]), len(metrics.POS)),
+        "nees": {"pos": metrics.consistency(np.stack([r.nees_pos for r in results]), len(metrics.POS),
+                                            reference=_stack_reference(results)),
                  "state": metrics.consistency(np.stack([r.nees_state for r in results]), len(metrics.STATE))},
         "calibration": metrics.calibration(np.stack([r.level for r in results])),
         "guidance_status": dict(sorted(statuses.items())),
@@ -984,6 +994,14 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "timing": {k: float(np.median(secs[:, i])) for i, k in enumerate(STAGES)},
         "wall_seconds": wall,
     }
+
+
+def _stack_reference(results: list[TrialResult]) -> np.ndarray | None:
+    """``(trials, steps, M, draws)`` the calibrated reference NEES of every trial, None if
+    a trial file lacks it."""
+    if any(r.nees_ref is None for r in results):
+        return None
+    return np.stack([r.nees_ref for r in results])
 
 
 def occluded_share(sensor, results: list[TrialResult]) -> list[float] | None:

@@ -372,6 +372,11 @@ def _print_summary(s: dict) -> None:
         print(f"  NEES {label} (dof {n['dof']}): {_verdict(n)}: mean {np.mean(n['mean']):.2f}, {n['level']:.0%} band "
               f"[{n['band'][0]:.2f}, {n['band'][1]:.2f}]: inside {n['inside']:.0%} of steps, "
               f"below {n['below']:.0%}, above {n['above']:.0%}")
+        if "calibrated" in n:
+            c = n["calibrated"]
+            print(f"  {'':<8}a calibrated filter with these beliefs (truths drawn from them, {c['draws']} draws): "
+                  f"mean {np.mean(c['mean']):.2f}, inside {c['inside']:.0%} of steps "
+                  f"({c['inside_range'][0]:.0%}-{c['inside_range'][1]:.0%})")
     c = s["calibration"]
     print(f"  credible level of the truth (position; 0.50 and 5% if calibrated, whatever the belief's shape): "
           f"mean {np.mean(c['mean']):.2f}, band [{c['band'][0]:.2f}, {c['band'][1]:.2f}]: inside {c['inside']:.0%} "
@@ -395,8 +400,9 @@ def _verdict(n: dict) -> str:
 def _nees_note(trials: int, targets: int, level: float) -> str:
     """What the NEES lines mean, once, under them."""
     return (f"  (NEES: the error weighted by the inverse covariance, averaged each step over the n = {trials} x "
-            f"{targets} = {trials * targets} trial-targets; a consistent filter's average is in the band at about "
-            f"{level:.0%} of steps; pessimistic: below it, the covariance wider than the errors; overconfident: above)")
+            f"{targets} = {trials * targets} trial-targets; a consistent filter with Gaussian beliefs has its average "
+            f"in the band at about {level:.0%} of steps, one with other beliefs (particles) at the calibrated "
+            "filter's share; pessimistic: below it, the covariance wider than the errors; overconfident: above)")
 
 
 def cmd_run(args: argparse.Namespace) -> int:

@@ -63,6 +63,14 @@ def state_nees(mean: np.ndarray, cov: np.ndarray, truth: np.ndarray, dims=POS) -
     return nees(mean[:, d] - truth[:, d], cov[:, d[:, None], d])
 
 
+def draws_nees(mean: np.ndarray, cov: np.ndarray, draws: np.ndarray, dims=POS) -> np.ndarray:
+    """``(M, k)`` NEES over ``dims`` of ``draws (M, k, 6)`` against means ``(M, 6)`` and
+    covariances ``(M, 6, 6)`` (:func:`state_nees` for k states per target)."""
+    d = np.asarray(dims)
+    block = cov[:, d[:, None], d][:, None]
+    return nees(draws[..., d] - mean[:, None, d], np.broadcast_to(block, (*draws.shape[:2], *block.shape[2:])))
+
+
 def nees_band(n: int, dof: int, level: float = 0.95) -> tuple[float, float]:
     """Two-sided ``level`` band of the average of n independent chi-square(dof) values."""
     a = (1.0 - level) / 2.0
@@ -85,15 +93,32 @@ def paired_t(a: np.ndarray, b: np.ndarray) -> float:
     return float(diff.mean() / (sd / np.sqrt(len(diff)))) if sd > 0 else 0.0
 
 
-def consistency(values: np.ndarray, dof: int, level: float = 0.95) -> dict:
+def consistency(values: np.ndarray, dof: int, level: float = 0.95, reference: np.ndarray | None = None) -> dict:
     """Per-step average NEES of ``values (trials, steps, M)``, its band and the share of
-    steps inside it (JSON-ready)."""
+    steps inside it (JSON-ready).
+
+    The band is the chi-square one: a *Gaussian* belief whose covariance is right has its
+    average inside at ``level`` of steps.  A particle belief is not Gaussian (a bearing's
+    banana, a cloud split between two streets): the NEES of a truth that follows it
+    exactly still averages ``dof``, but with heavier tails, so its per-step average leaves
+    the band more often.  ``reference (trials, steps, M, draws)``: the NEES of states drawn
+    from the beliefs themselves (truths a calibrated filter with these beliefs would see);
+    then ``"calibrated"`` holds their per-step average (over the draws too) and the share of
+    steps inside the same band, for each draw as one campaign, averaged over the draws,
+    with the least and most of them: what the filter's own share would be if it were
+    calibrated."""
     trials, _, m = values.shape
     lo, hi = nees_band(trials * m, dof, level)
     mean = values.mean(axis=(0, 2))
-    return {"dof": dof, "mean": mean.tolist(), "band": [lo, hi], "level": level,
-            "inside": float(np.mean((mean >= lo) & (mean <= hi))),
-            "below": float(np.mean(mean < lo)), "above": float(np.mean(mean > hi))}
+    out = {"dof": dof, "mean": mean.tolist(), "band": [lo, hi], "level": level,
+           "inside": float(np.mean((mean >= lo) & (mean <= hi))),
+           "below": float(np.mean(mean < lo)), "above": float(np.mean(mean > hi))}
+    if reference is not None:
+        each = reference.mean(axis=(0, 2))  # (steps, draws)
+        share = ((each >= lo) & (each <= hi)).mean(axis=0)  # (draws,)
+        out["calibrated"] = {"mean": each.mean(axis=1).tolist(), "inside": float(share.mean()),
+                             "inside_range": [float(share.min()), float(share.max())], "draws": int(share.size)}
+    return out
 
 
 def credible_level(truth: np.ndarray, mean: np.ndarray, cov: np.ndarray, particles: np.ndarray | None = None,

@@ -26,7 +26,8 @@ Each step t -> t+1:
    logged as a track-loss event.
 
 Randomness: a trial gets one ``SeedSequence``; it spawns separate streams for the truth's
-process noise, the sensor, the filter, the UAV start and the truth's initial state, so
+process noise, the sensor, the filter, the UAV start and the truth's initial state (and a
+sixth for the metrics' draws from the belief, which the trial never reads), so
 trial k sees the same truth and the same prior particles whichever policy runs (common
 random numbers across policies and the baseline).
 """
@@ -95,7 +96,9 @@ class Simulation:
             ss = np.random.SeedSequence(seed.entropy, spawn_key=seed.spawn_key, pool_size=seed.pool_size)
         else:
             ss = np.random.SeedSequence(seed)
-        truth_rng, self.rng_sensor, filter_rng, uav_rng, start_rng = map(np.random.default_rng, ss.spawn(5))
+        # the sixth stream is for checks that must not touch the trial (the metrics' draws from the belief)
+        truth_rng, self.rng_sensor, filter_rng, uav_rng, start_rng, self.rng_check = map(np.random.default_rng,
+                                                                                         ss.spawn(6))
         m = self.m
         self.truth = Truth(m, self.guidance, start_rng, truth_rng)
         self.belief = make_belief(m.filter, filter_rng, np.array([t.mean0 for t in m.targets]),

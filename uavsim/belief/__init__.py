@@ -101,6 +101,10 @@ class Belief(Protocol):
     def samples(self) -> np.ndarray | None:
         """``(M, N, 6)`` particles to draw (a copy), or None for a Gaussian belief."""
 
+    def draw(self, rng: np.random.Generator, k: int) -> np.ndarray:
+        """``(M, k, 6)`` states drawn from each target's belief (for the calibrated reference
+        of :func:`uavsim.metrics.consistency`: truths that follow the belief exactly)."""
+
     @property
     def lost(self) -> np.ndarray:
         """``(M,)`` bool: tracks declared lost (particle beliefs with ``loss_nats > 0``)."""

@@ -72,6 +72,13 @@ class GaussianBelief:
     def samples(self) -> None:
         return None
 
+    def draw(self, rng: np.random.Generator, k: int) -> np.ndarray:
+        """``N(mean, cov)`` through the covariance's eigen-decomposition (its z block is
+        ~1e-10, and rounding may leave an eigenvalue a hair below zero: clipped to 0)."""
+        val, vec = np.linalg.eigh(self.cov)
+        z = rng.standard_normal((len(self.mean), k, 6)) * np.sqrt(np.maximum(val, 0.0))[:, None, :]
+        return self.mean[:, None, :] + np.einsum("mij,mkj->mki", vec, z)
+
     @property
     def lost(self) -> np.ndarray:
         """(M,) no track-loss detection here: never lost."""

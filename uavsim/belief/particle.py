@@ -368,5 +368,15 @@ class ParticleBelief:
     def samples(self) -> np.ndarray:
         return self.pf.particles.copy()
 
+    def draw(self, rng: np.random.Generator, k: int) -> np.ndarray:
+        """k particles per target, each picked with probability its weight (independently)."""
+        m, n = self.pf.weights.shape
+        cum = np.cumsum(self.pf.weights, axis=1)
+        cum /= cum[:, -1:]
+        rows = np.arange(m)[:, None]  # every row searched at once, offset by its index (systematic_indices)
+        idx = np.searchsorted((cum + rows).ravel(), (rng.random((m, k)) + rows).ravel(), side="right")
+        idx = np.minimum(idx.reshape(m, k) - rows * n, n - 1)
+        return np.take_along_axis(self.pf.particles, idx[..., None], axis=1)
+
     def credible_level(self, truth: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
         return credible_level(truth, mean, cov, self.pf.particles, self.pf.weights)
