@@ -124,7 +124,9 @@ class TrialResult:
     level: np.ndarray | None = None
     nees_ref: np.ndarray | None = None
 
+
 REFERENCE_DRAWS = 8  # states drawn from each belief per step for the calibrated reference of the NEES
+
 
 class trial_seeds:  # noqa: N801 (a lazy list)
     """``SeedSequence(seed).spawn(trials)`` without spawning them all: item k is the k-th
