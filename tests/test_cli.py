@@ -240,7 +240,8 @@ def test_plan_json_is_one_readable_object(capsys):
 
 def test_run_explains_its_nees_lines(capsys, tmp_path):
     """Each NEES line says in one word whether the filter is consistent, pessimistic or
-    overconfident; one line under them says what is averaged (n = trials x targets) and
+    overconfident; under the position line, what a calibrated filter with the same beliefs
+    would score; one line under them says what is averaged (n = trials x targets) and
     what the band means; the band is chi-square with n x dof degrees of freedom, / n; the
     guidance plans are counted in words."""
     from scipy import stats
@@ -248,8 +249,11 @@ def test_run_explains_its_nees_lines(capsys, tmp_path):
     assert main(["run", M, "--trials", "2", "--steps", "1", "--quiet", "--workers", "1", "--out",
                  str(tmp_path)]) == 0
     out = " ".join(capsys.readouterr().out.split())
-    assert "averaged each step over the n = 2 x 4 = 8 trial-targets; a consistent filter's average is in the " \
-           "band at about 95% of steps" in out
+    assert "averaged each step over the n = 2 x 4 = 8 trial-targets; a consistent filter with Gaussian beliefs has " \
+           "its average in the band at about 95% of steps, one with other beliefs (particles) at the calibrated " \
+           "filter's share" in out
+    assert re.search(r"a calibrated filter with these beliefs \(truths drawn from them, 8 draws\): mean [\d.]+, "
+                     r"inside \d+% of steps \(\d+%-\d+%\)", out)
     lo, hi = stats.chi2.ppf([0.025, 0.975], 8 * 2) / 8
     assert re.search(r"NEES position \(dof 2\): (consistent|pessimistic|overconfident): mean", out)
     assert f"95% band [{lo:.2f}, {hi:.2f}]" in out and out.count("(NEES: the error weighted") == 1
