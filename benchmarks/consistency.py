@@ -1,0 +1,132 @@
+"""Why the towns' beliefs are wider than their errors: the filter's forces against the truth's.
+
+    python benchmarks/consistency.py [--worlds osm-small] [--trials 10] [--steps 20] [--force-trials 5]
+                                     [--workers 2] [--out runs/consistency] [--json PATH]
+
+Each world's mission as ``benchmarks/towns.py`` makes it (8 targets; an imported town has line
+of sight on), flown by the optimized UAV.
+
+* **Forces.** For ``--force-trials`` trials, at every step and for every target: the force
+  the true target applies (its noise-free plan's, made once from its start: the paper's
+  truth), the force of a re-plan from the true state itself (what the filter would apply to
+  a particle exactly on the truth), and the first force of the filter's plan for the half of
+  its cloud whose mean is nearest the truth.  Quantiles of the differences, in newtons.
+* **Given the truth's forces.** The same trials with the filter predicting by the true
+  targets' own forces (``Simulation(..., oracle=True)``), once with the mission's noise
+  levels and once with levels 30 times smaller, beside the filter as it is: the position
+  NEES (mean, median against chi-square(2)'s 1.39, share of steps in its band) and what a
+  calibrated filter with the same beliefs would have in band
+  (:func:`uavsim.metrics.consistency`).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from harness import markdown_table, parser, run, run_cells
+from towns import mission_file
+
+from uavsim import metrics
+from uavsim.campaign import kept_guidance, one_blas_thread, run_trial, trial_seeds
+from uavsim.config import load_mission
+from uavsim.sim import Simulation
+
+QUIET = 30.0  # the quieter levels: the mission's divided by this
+VARIANTS = ("filter", "truth's forces", "truth's forces, levels / 30")
+
+
+def forces(world: str, k: int, steps: int, paths: dict) -> np.ndarray:
+    """``(steps x M, 3)`` per target-step: |truth - re-plan from the truth|, |truth - nearest
+    half's plan|, |truth| (N)."""
+    m = load_mission(paths[world], {"steps": steps})
+    rows = []
+    with one_blas_thread():
+        sim = Simulation(m, "optimized", kept_guidance(m))
+        sim.reset(trial_seeds(m.seed, k + 1)[k])
+        zero = np.zeros((6, 6))
+        for t in range(steps):
+            sim.prepare()
+            _, _, means, _ = sim.belief.halves()
+            for j, x in enumerate(sim.truth.state):
+                u = sim.truth.plans[j].controls[t % len(sim.truth.plans[j].controls), :2]
+                again = sim.guidance.replan(x, zero, m.goals[j], None, t, 1).controls[0, :2]
+                halves = sim.half_plans[j] or [sim.plans[j]]
+                near = int(np.argmin(np.hypot(*(means[j, :len(halves), :2] - x[:2]).T)))
+                rows.append([np.hypot(*(u - again)), np.hypot(*(u - halves[near].controls[0, :2])), np.hypot(*u)])
+            sim.step()
+    return np.array(rows)
+
+
+def trial(world: str, variant: str, k: int, trials: int, steps: int, paths: dict) -> dict:
+    over = {"steps": steps, "trials": trials}
+    if variant.endswith("/ 30"):
+        over["filter.noise_scales"] = [s / QUIET for s in load_mission(paths[world]).filter.noise_scales]
+    m = load_mission(paths[world], over)
+    r = run_trial(m, "optimized", k, trial_seeds(m.seed, trials)[k], kept_guidance(m),
+                  oracle=variant != "filter")
+    return {"nees": r.nees_pos, "ref": r.nees_ref, "err2": r.err2}
+
+
+def summary(results: list[dict]) -> dict:
+    nees = np.stack([r["nees"] for r in results])
+    c = metrics.consistency(nees, 2, reference=np.stack([r["ref"] for r in results]))
+    return {"nees_mean": float(nees.mean()), "nees_median": float(np.median(nees)), "inside": c["inside"],
+            "below": c["below"], "above": c["above"], "calibrated_inside": c["calibrated"]["inside"],
+            "rmse": float(np.sqrt(np.stack([r["err2"] for r in results]).mean()))}
+
+
+def main(args) -> dict:
+    out = Path(args.out)
+    worlds = args.worlds.split(",")
+    paths = {w: mission_file(w, 8, out / w) for w in worlds}  # written once, before the workers read them
+    cells = [(w, k) for w in worlds for k in range(args.force_trials)]
+    done = run_cells(forces, cells, (args.steps, paths), args.workers, "forces")
+    rows = []
+    for w in worlds:
+        f = np.concatenate([done[(w, k)] for k in range(args.force_trials) if (w, k) in done])
+        q = [50, 75, 90, 99]
+        rows.append({"world": w, "target_steps": len(f), "replan_quantiles": np.percentile(f[:, 0], q).tolist(),
+                     "replan_above_100": float(np.mean(f[:, 0] > 100)),
+                     "half_quantiles": np.percentile(f[:, 1], q).tolist(),
+                     "half_above_100": float(np.mean(f[:, 1] > 100)), "force_median": float(np.median(f[:, 2]))})
+    cells = [(w, v, k) for w in worlds for v in VARIANTS for k in range(args.trials)]
+    done = run_cells(trial, cells, (args.trials, args.steps, paths), args.workers, "trial")
+    oracle = [{"world": w, "variant": v, "trials": args.trials,
+               **summary([done[(w, v, k)] for k in range(args.trials) if (w, v, k) in done])}
+              for w in worlds for v in VARIANTS]
+    print(force_table(rows))
+    print()
+    print(oracle_table(oracle))
+    return {"forces": rows, "oracle": oracle}
+
+
+def force_table(rows: list[dict]) -> str:
+    head = ["world", "target-steps", "truth's force, median",
+            "truth's force less a re-plan's from the true state: p50 / p75 / p90 / p99", "above 100 N",
+            "less the filter's nearest half's: p50 / p75 / p90 / p99", "above 100 N"]
+    body = [[r["world"], r["target_steps"], f"{r['force_median']:.0f} N",
+             " / ".join(f"{v:.0f}" for v in r["replan_quantiles"]) + " N", f"{100 * r['replan_above_100']:.0f}%",
+             " / ".join(f"{v:.0f}" for v in r["half_quantiles"]) + " N", f"{100 * r['half_above_100']:.0f}%"]
+            for r in rows]
+    return markdown_table(head, body)
+
+
+def oracle_table(rows: list[dict]) -> str:
+    head = ["world", "filter predicts with", "RMSE m", "NEES pos mean", "median (chi-square 1.39)",
+            "in band / below / above", "a calibrated filter in band"]
+    body = [[r["world"], r["variant"], f"{r['rmse']:.1f}", f"{r['nees_mean']:.2f}", f"{r['nees_median']:.2f}",
+             f"{100 * r['inside']:.0f} / {100 * r['below']:.0f} / {100 * r['above']:.0f}%",
+             f"{100 * r['calibrated_inside']:.0f}%"] for r in rows]
+    return markdown_table(head, body)
+
+
+if __name__ == "__main__":
+    ap = parser(__doc__)
+    ap.add_argument("--worlds", default="osm-small")
+    ap.add_argument("--trials", type=int, default=10)
+    ap.add_argument("--steps", type=int, default=20)
+    ap.add_argument("--force-trials", type=int, default=5)
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--out", default="runs/consistency")
+    run(main, ap)
