@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 import budget
+import consistency
 import numpy as np
 import osm_import
 import towns
@@ -358,6 +359,18 @@ def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | 
     return out
 
 
+def tables_consistency(data: dict | None) -> dict[str, str]:
+    """Why the towns' beliefs are wide (``consistency.py``): the filter's forces against the
+    truth's, and the NEES with the truth's own forces."""
+    if data is None:
+        return {}
+    f, s = data["figures"], data["settings"]
+    return {"towns-consistency": consistency.force_table(f["forces"]) + "\n\n"
+            + consistency.oracle_table(f["oracle"]) + f"\n\nForces: {s['force_trials']} trials of {s['steps']} steps a "
+            f"world; NEES: {s['trials']} trials of {s['steps']} steps a row, the same trials in every row of a world. "
+            + provenance(data)}
+
+
 def tables_bo_standard(data: dict | None) -> dict[str, str]:
     """The standard bearings-only benchmark (``bo_standard.py``): per scenario and method the
     final position RMSE, its ratio to the Bayesian CRLB, lost tracks, NEES, time."""
@@ -433,10 +446,10 @@ def pages() -> dict[Path, dict[str, str]]:
                                                                 cities["cities-first-plans"], list(cities.values()))},
             DOCS / "results" / "worlds.md": {**tables_worlds(_load(DATA / "worlds.json")),
                                               **tables_bound_check(_load(DATA / "bound-check.json"))},
-            DOCS / "results" / "towns.md": tables_towns(
+            DOCS / "results" / "towns.md": {**tables_towns(
                 _load(DATA / "osm-import.json"), _load(DATA / "budget.json"), _load(DATA / "plan-of-work.json"),
                 _load(DATA / "towns.json"), {name: _load(DATA / f) for name, f in TOWN_CAMPAIGNS.items()},
-                _load(DATA / "line-of-sight.json")),
+                _load(DATA / "line-of-sight.json")), **tables_consistency(_load(DATA / "consistency.json"))},
             DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
                                                 **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
                                                                    "lookahead-clusters2")},
