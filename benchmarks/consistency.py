@@ -49,7 +49,8 @@ def forces(world: str, k: int, steps: int, paths: dict) -> np.ndarray:
             sim.prepare()
             _, _, means, _ = sim.belief.halves()
             for j, x in enumerate(sim.truth.state):
-                u = sim.truth.plans[j].controls[t % len(sim.truth.plans[j].controls), :2]
+                plan = sim.truth.plans[j]  # planned: made once (and past each horizon); stochastic: this step's
+                u = plan.controls[t % len(plan.controls) if m.truth == "planned" else 0, :2]
                 again = sim.guidance.replan(x, zero, m.goals[j], None, t, 1).controls[0, :2]
                 halves = sim.half_plans[j] or [sim.plans[j]]
                 near = int(np.argmin(np.hypot(*(means[j, :len(halves), :2] - x[:2]).T)))
