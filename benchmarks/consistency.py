@@ -111,7 +111,7 @@ def force_table(rows: list[dict]) -> str:
             "less the filter's nearest half's: p50 / p75 / p90 / p99", "above 100 N"]
     body = [[r["world"], r["target_steps"], f"{r['force_median']:.0f} N",
              " / ".join(f"{v:.0f}" for v in r["replan_quantiles"]) + " N", f"{100 * r['replan_above_100']:.0f}%",
-             f"{100 * r['replan_optimal']:.0f}%" if "replan_optimal" in r else "-",  # not kept before 141c7a5
+             f"{100 * r['replan_optimal']:.0f}%" if "replan_optimal" in r else "-",  # JSON written before it was kept
              " / ".join(f"{v:.0f}" for v in r["half_quantiles"]) + " N", f"{100 * r['half_above_100']:.0f}%"]
             for r in rows]
     return markdown_table(head, body)
