@@ -38,7 +38,7 @@ from ..metrics import credible_level
 from ..sensing import EXP_FLOOR, BearingModel, Scan
 from ..targets import Dynamics
 from . import recovery
-from .traces import pseudo_traces
+from .traces import inverse_cdf, pseudo_traces
 
 
 class ParticleFilter:
@@ -205,16 +205,11 @@ def systematic_indices(rng: np.random.Generator, weights: np.ndarray, k: int | N
     """Systematic resampling, one uniform per row: ``weights (R, N)`` -> indices ``(R, k)``
     (``k = N`` by default).
 
-    Rows are searched at once by offsetting row r's cumulative weights by r.
+    (:func:`.traces.inverse_cdf` of the positions ``(u_r + i) / k``).
     """
     r, n = weights.shape
     k = n if k is None else k
-    cum = np.cumsum(weights, axis=1)
-    cum /= cum[:, -1:]
-    offsets = np.arange(r)[:, None]
-    positions = (rng.random((r, 1)) + np.arange(k)[None, :]) / k
-    idx = np.searchsorted((cum + offsets).ravel(), (positions + offsets).ravel(), side="right")
-    return np.minimum(idx.reshape(r, k) - offsets * n, n - 1)
+    return inverse_cdf(weights, (rng.random((r, 1)) + np.arange(k)[None, :]) / k)
 
 
 def weighted_moments(particles: np.ndarray, weights: np.ndarray, work: dict | None = None
@@ -370,12 +365,7 @@ class ParticleBelief:
 
     def draw(self, rng: np.random.Generator, k: int) -> np.ndarray:
         """k particles per target, each picked with probability its weight (independently)."""
-        m, n = self.pf.weights.shape
-        cum = np.cumsum(self.pf.weights, axis=1)
-        cum /= cum[:, -1:]
-        rows = np.arange(m)[:, None]  # every row searched at once, offset by its index (systematic_indices)
-        idx = np.searchsorted((cum + rows).ravel(), (rng.random((m, k)) + rows).ravel(), side="right")
-        idx = np.minimum(idx.reshape(m, k) - rows * n, n - 1)
+        idx = inverse_cdf(self.pf.weights, rng.random((len(self.pf.weights), k)))
         return np.take_along_axis(self.pf.particles, idx[..., None], axis=1)
 
     def credible_level(self, truth: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:

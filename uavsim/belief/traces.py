@@ -178,12 +178,21 @@ def _thinned(particles: np.ndarray, weights: np.ndarray, k: int) -> tuple[np.nda
     m, n, _ = particles.shape
     if n <= k:
         return particles, weights
+    idx = inverse_cdf(weights, ((np.arange(k) + 0.5) / k)[None, :])  # (M, k)
+    return np.take_along_axis(particles, idx[..., None], axis=1), np.full((m, k), 1.0 / k)
+
+
+def inverse_cdf(weights: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """``(R, k)`` indices of the positions ``u`` (broadcast to ``(R, k)``, in [0, 1)) in each
+    row's cumulative ``weights (R, N)``: the particle each position picks (resampling,
+    thinning, draws).  Rows are searched at once by offsetting row r's cumulative weights
+    by r."""
+    r, n = weights.shape
     cum = np.cumsum(weights, axis=1)
     cum /= cum[:, -1:]
-    rows = np.arange(m)[:, None]  # each row offset by its index: one search for all rows
-    at = np.searchsorted((cum + rows).ravel(), (((np.arange(k) + 0.5) / k)[None, :] + rows).ravel(), side="right")
-    idx = np.minimum(at.reshape(m, k) - rows * n, n - 1)  # (M, k)
-    return np.take_along_axis(particles, idx[..., None], axis=1), np.full((m, k), 1.0 / k)
+    offsets = np.arange(r)[:, None]
+    at = np.searchsorted((cum + offsets).ravel(), (u + offsets).ravel(), side="right")
+    return np.minimum(at.reshape(r, -1) - offsets * n, n - 1)
 
 
 def bearing_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray, sigma: float,
