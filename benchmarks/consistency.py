@@ -51,8 +51,10 @@ def forces(world: str, k: int, steps: int, paths: dict) -> np.ndarray:
             _, _, means, _ = sim.belief.halves()
             for j, x in enumerate(sim.truth.state):
                 plan = sim.truth.plans[j]  # planned: made once (and past each horizon); stochastic: this step's
-                u = plan.controls[t % len(plan.controls) if m.truth == "planned" else 0, :2]
-                again = sim.guidance.replan(x, zero, m.goals[j], None, t, 1)
+                k_t = t % len(plan.controls) if m.truth == "planned" else 0
+                u = plan.controls[k_t, :2]
+                applied = plan.controls[k_t - 1] if m.truth == "planned" and k_t else None  # the link term's
+                again = sim.guidance.replan(x, zero, m.goals[j], None, t, 1, applied)
                 halves = sim.half_plans[j] or [sim.plans[j]]
                 near = int(np.argmin(np.hypot(*(means[j, :len(halves), :2] - x[:2]).T)))
                 rows.append([np.hypot(*(u - again.controls[0, :2])), np.hypot(*(u - halves[near].controls[0, :2])),

@@ -18,7 +18,9 @@ policy against true targets that re-plan and take the process noise Q the filter
 reference seconds instead of the mission's 1.0, for speed (``weighted-budget-0.1``: with the
 ``weighted`` UAV policy); ``one-level`` and
 ``no-loss-detection``: the optimized policy with the mission's filter less one of its
-additions (one process noise Q for every particle; no track-loss detection).  Every variant runs the
+additions (one process noise Q for every particle; no track-loss detection); ``link``: the
+line-of-sight run with P1's link term (``guidance.link_applied_force``, the truth's plans
+and the filter's re-plans alike).  Every variant runs the
 same trials (trial k seeded from ``SeedSequence(seed).spawn(trials)[k]``) beside the
 no-information baseline of those trials
 (:func:`uavsim.campaign.with_baseline`), and reports what a tracking result needs: RMSE over
@@ -59,6 +61,8 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "budget-0.1": ("optimized", {"guidance.replan_budget_s": 0.1}),  # every re-plan's budget, truth's too: speed
     "budget-0.25": ("optimized", {"guidance.replan_budget_s": 0.25}),
     "weighted-budget-0.1": ("weighted", {"guidance.replan_budget_s": 0.1}),  # the weighted UAV, fast steps
+    # P1 with the step from the applied force weighed (truth and filter), line of sight on
+    "link": ("optimized", {"guidance.link_applied_force": True, "sensor.line_of_sight": True}),
 }
 SHARED = ("truth", "guidance.")  # overrides the baseline takes too: they change the truths, not the filter
 

@@ -448,22 +448,54 @@ def test_a_world_without_obstacles_plans_the_unconstrained_qp():
 def test_assembled_program_equals_cvxpy_compilation(paper_guidance):
     """The rows written by hand (assemble_p1) and the rows cvxpy compiles from the readable
     model (compile_p1) give the same optimum for the relaxation and for feasible face
-    choices, at several horizons and starts."""
+    choices, at several horizons and starts; with ``link_applied_force`` too, at an applied
+    force that is not zero, where the last two terms are ``u_0 - applied`` (kN), weighed
+    rho like the increments."""
     from uavsim.guidance.compiled import compile_p1
     from uavsim.guidance.qp import FixedFaceQP
 
-    for horizon in (3, 12, 50):
-        cvx = compile_p1(build_p1(MISSION.world, MISSION.dynamics, short(horizon)))
-        g = Guidance(MISSION.world, MISSION.dynamics, short(horizon))
-        qp_a, qp_b = g.oa.qp, FixedFaceQP(cvx)
-        for t in MISSION.targets:
-            theta = np.r_[t.mean0[[0, 1, 3, 4]], GOAL[:2]]
-            plan = g.plan(t.mean0, t.cov0, GOAL)
-            for y in (np.ones(g.oa.shape), plan.faces):
-                relax = y is not plan.faces
-                a = qp_a.solve(*g.oa.c.rows(theta), y, relax=relax)
-                b = qp_b.solve(*cvx.rows(theta), y, relax=relax)
-                assert a.f == pytest.approx(b.f, rel=1e-7, abs=1e-6)
+    for link, horizons in ((False, (3, 12, 50)), (True, (3, 12))):
+        applied = np.array([1.5, -2.0]) if link else np.zeros(2)  # kN
+        for horizon in horizons:
+            cfg = dataclasses.replace(short(horizon), link=link)
+            cvx = compile_p1(build_p1(MISSION.world, MISSION.dynamics, cfg))
+            g = Guidance(MISSION.world, MISSION.dynamics, cfg)
+            qp_a, qp_b = g.oa.qp, FixedFaceQP(cvx)
+            for t in MISSION.targets:
+                theta = np.r_[t.mean0[[0, 1, 3, 4]], GOAL[:2], applied]
+                plan = g.plan(t.mean0, t.cov0, GOAL)
+                for y in (np.ones(g.oa.shape), plan.faces):
+                    relax = y is not plan.faces
+                    a = qp_a.solve(*g.oa.c.rows(theta), y, relax=relax)
+                    b = qp_b.solve(*cvx.rows(theta), y, relax=relax)
+                    assert a.f == pytest.approx(b.f, rel=1e-7, abs=1e-6)
+                    if link:
+                        np.testing.assert_allclose(a.s[-2:], a.u[0] - applied, atol=1e-7)
+                        assert a.f == pytest.approx(float(g.oa.c.term_w @ a.s**2), rel=1e-9)
+                        assert g.oa.c.term_w[-1] == cfg.rho * 1e6
+
+
+def test_link_term_keeps_the_plan_a_replan_follows():
+    """Bellman's principle, which the link term restores: from the state a plan led to,
+    with the force it applied, each re-plan (shrinking horizon) is the rest of that plan,
+    to the newton, for every target of the paper mission over five steps.  P1 as
+    published (no link) picks other forces on every target (by 368-641 N when written)."""
+    misses = {}
+    for link in (False, True):
+        cfg = dataclasses.replace(short(20), link=link)
+        g = Guidance(MISSION.world, MISSION.dynamics, cfg)
+        for j, t in enumerate(MISSION.targets):
+            plan = g.plan(t.mean0, np.zeros((6, 6)), MISSION.goals[j])
+            prev, worst = plan, 0.0
+            for step in range(1, 6):
+                again = g.plan(plan.means[step - 1], np.zeros((6, 6)), MISSION.goals[j], warm=prev, step=step,
+                               applied=plan.controls[step - 1])
+                assert again.status == "optimal"
+                worst = max(worst, np.abs(again.controls[:, :2] - plan.controls[step:, :2]).max())
+                prev = again
+            misses[link, j] = worst
+    assert all(misses[True, j] < 1.0 for j in range(len(MISSION.targets)))
+    assert all(misses[False, j] > 100.0 for j in range(len(MISSION.targets)))
 
 
 def _generated(seed, folder):

@@ -348,3 +348,29 @@ def test_a_draw_from_the_belief_picks_particles_by_weight():
     x = gauss.draw(np.random.default_rng(2), k)[0]
     np.testing.assert_allclose(x.mean(axis=0)[:2], [10.0, -5.0], atol=4 * np.sqrt(100.0 / k))
     np.testing.assert_allclose(np.cov(x[:, :2].T), cov[:2, :2], rtol=0.04)  # relative s.e. <= 1% (sqrt(3400 / k) / 30)
+
+
+def test_each_particle_keeps_the_force_it_moved_by_through_resampling_and_reseeding():
+    """What the link term's next re-plans weigh against: after a split prediction each
+    particle keeps its half's force, the belief's means of it are the weighted means by
+    hand (cloud and halves), resampling carries a particle's force with it, and re-seeded
+    particles take the mean force of the particles kept."""
+    b = _belief_on(np.array([0.0, 0.0]), 5.0, 10.0)
+    n = b.pf.particles.shape[1]
+    mask = (np.arange(n) % 4 == 0)[None]  # a quarter of the cloud is the second half
+    b.predict(Dynamics(), np.array([[100.0, -200.0, 0.0]]), (mask, np.array([[-300.0, 50.0, 0.0]])))
+    np.testing.assert_array_equal(b.pf.applied[0, mask[0]], np.broadcast_to([-300.0, 50.0], (n // 4, 2)))
+    np.testing.assert_array_equal(b.pf.applied[0, ~mask[0]], np.broadcast_to([100.0, -200.0], (n - n // 4, 2)))
+    w = np.random.default_rng(3).dirichlet(np.ones(n))
+    b.pf.logw = np.log(w)[None]
+    share = w[mask[0]].sum()
+    first, second = np.array([100.0, -200.0]), np.array([-300.0, 50.0])
+    np.testing.assert_allclose(b.applied()[0], (1 - share) * first + share * second)
+    np.testing.assert_allclose(b.applied(mask)[0], [[100.0, -200.0], [-300.0, 50.0]])
+    b.pf.logw = np.where(mask, 0.0, -np.inf) - np.log(n // 4)  # only the second half survives
+    b.pf.resample(np.random.default_rng(4), 1.0)
+    np.testing.assert_array_equal(b.pf.applied[0], np.broadcast_to([-300.0, 50.0], (n, 2)))
+    b.pf.applied[0, : n // 2] = [0.0, 0.0]
+    b.reseed(np.array([0]), np.zeros((1, n // 2, 6)))
+    kept = b.pf.applied[0, : n - n // 2]
+    np.testing.assert_allclose(b.pf.applied[0, n - n // 2:], np.broadcast_to(kept.mean(axis=0), (n // 2, 2)))

@@ -7,7 +7,10 @@ Each step t -> t+1:
    (Eq. 8c, rolling horizon; or from each half of its particle cloud, step 3),
    warm-started from its previous plan (at the first step from its plan at the prior
    mean, the same in every trial); a failed re-plan
-   falls back to the previous plan shifted by one step (an event is logged);
+   falls back to the previous plan shifted by one step (an event is logged).  With
+   ``[guidance] link_applied_force`` each re-plan also weighs the step from the force
+   its particles moved by last (each particle keeps its own; a half's re-plan takes its
+   weighted mean, :meth:`.belief.Belief.applied`);
 3. **belief predict** (Eq. 9a) with each plan's first control.  With ``[filter]
    plan_clusters = 2`` each particle cloud is split in two (:func:`.belief.particle.halves`)
    and each half moves by the first control of a plan from its own mean and covariance
@@ -188,8 +191,11 @@ class Simulation:
                         None if self.truth.sensitivity is None else self.truth.sensitivity.copy())
 
     def _replan(self, j: int, mean, cov, warm: Plan | None, events: list[str], who: str = "estimate",
-                shift: int = 1) -> Plan:
-        plan = self.guidance.replan(mean, cov, self.m.goals[j], warm, self.t, shift)
+                shift: int = 1, applied: np.ndarray | None = None) -> Plan:
+        """A re-plan warm-started from ``warm`` (made ``shift`` steps ago); ``applied (2,)``:
+        the mean force the particles it moves moved by last (:meth:`.guidance.Guidance.linked`)."""
+        plan = self.guidance.replan(mean, cov, self.m.goals[j], warm, self.t, shift,
+                                    None if applied is None or self.t == 0 else applied)
         if plan.eventful:
             events.append(f"{self.m.targets[j].name} ({who}): {plan.message}")
         return plan
@@ -215,20 +221,24 @@ class Simulation:
         the mean."""
         mean, cov = self.belief.moments()
         m = len(mean)
+        applied = self.belief.applied()
         if self.m.filter.plan_clusters != 2:
-            self.plans = [self._replan(j, mean[j], cov[j], previous[j], events, shift=shift) for j in range(m)]
+            self.plans = [self._replan(j, mean[j], cov[j], previous[j], events, shift=shift, applied=applied[j])
+                          for j in range(m)]
             return np.array([p.controls[0] for p in self.plans]), None
         mask, mass, means, covs = self.belief.halves()
+        half_applied = self.belief.applied(mask)
         both = np.empty((m, 2, 3))
         plans: list[Plan] = []
         for j in range(m):
             if mass[j].min() < MIN_HALF:
-                plans.append(self._replan(j, mean[j], cov[j], previous[j], events, shift=shift))
+                plans.append(self._replan(j, mean[j], cov[j], previous[j], events, shift=shift, applied=applied[j]))
                 both[j] = plans[-1].controls[0]
                 self.half_plans[j] = []
                 continue
             halves = [self._replan(j, means[j, h], covs[j, h], self._half_warm(j, means[j, h], previous[j], shift),
-                                   events, f"estimate, half {h + 1}", shift=shift) for h in range(2)]
+                                   events, f"estimate, half {h + 1}", shift=shift, applied=half_applied[j, h])
+                      for h in range(2)]
             both[j] = [p.controls[0] for p in halves]
             plans.append(halves[int(mass[j, 1] > mass[j, 0])])
             self.half_plans[j] = halves

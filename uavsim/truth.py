@@ -12,7 +12,8 @@ has none); it then moves by the mission's truth mode:
   the horizon).  The plan is warm-started from the plan at the prior (the same in every
   trial, so made once per process, and the start of the filter's first re-plans too), and
   so spends ``replan_budget_s``;
-* ``stochastic``: re-planned from the true state every step, moving by Eq. (1) with
+* ``stochastic``: re-planned from the true state every step (with the link term, from the
+  force it applied last), moving by Eq. (1) with
   process noise drawn again (at most :data:`NOISE_DRAWS` times) where a draw would carry
   the target into a building: a truncated Gaussian, so that the truth never enters one.
 
@@ -165,8 +166,9 @@ class Truth:
                 self.plans = self._noise_free_plans(t)
             return np.array([plan.controls[k] for plan in self.plans])
         zero = np.zeros((6, 6))
-        self.plans = [self.guidance.replan(x, zero, self.m.goals[j], self.plans[j], t)
-                      for j, x in enumerate(self.state)]
+        self.plans = [self.guidance.replan(x, zero, self.m.goals[j], p, t,
+                                           applied=None if p is None else p.controls[0])
+                      for j, (x, p) in enumerate(zip(self.state, self.plans))]
         events += [f"{self.m.targets[j].name} (truth): {p.message}" for j, p in enumerate(self.plans)
                    if p.eventful]
         return np.array([p.controls[0] for p in self.plans])

@@ -87,6 +87,12 @@ class Belief(Protocol):
         """Eq. (9a) with each target's force ``controls (M, 3)``; ``split = (mask (M, N),
         other (M, 3))``: the masked particles take ``other`` (particle beliefs only)."""
 
+    def applied(self) -> np.ndarray:
+        """``(M, 2)`` the mean ground force (N) the last prediction moved each target by (zero
+        before the first): what the link term of the next re-plan weighs against
+        (:meth:`uavsim.guidance.Guidance.linked`).  A particle belief keeps each particle's,
+        and also gives each half's (``applied(mask)``, :meth:`.particle.ParticleBelief.applied`)."""
+
     def update(self, scans: list[Scan], observers: np.ndarray, sensor: BearingModel) -> list[str]:
         """Eq. (9b) with one scan per observer ``(S, 3)``; returns event messages
         (degenerate updates skipped, resampling).  No scans: nothing changes."""

@@ -36,10 +36,16 @@ class GaussianBelief:
         self.kind, self.names = kind, names
         self.mean, self.cov = means.astype(float).copy(), covs.astype(float).copy()
         self.kw = {"v_min": 0.0, "v_max": v_max} if kind == "vc-plkf" else {}
+        self._applied = np.zeros((len(means), 2))
 
     def predict(self, dynamics: Dynamics, controls: np.ndarray, split: None = None) -> None:
         """``split`` (halves moving by different plans) is for particle beliefs only."""
         self.mean, self.cov = dynamics.predict(self.mean, self.cov, controls)
+        self._applied = controls[:, :2].copy()
+
+    def applied(self) -> np.ndarray:
+        """``(M, 2)`` the ground force of the last prediction."""
+        return self._applied.copy()
 
     def update(self, scans: list[Scan], observers: np.ndarray, sensor: BearingModel) -> list[str]:
         """Each sensor's clutter-free scan in turn."""

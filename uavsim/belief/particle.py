@@ -59,6 +59,7 @@ class ParticleFilter:
         self.levels = None if scales is None or len(scales) < 2 else np.sqrt(np.asarray(scales, float))
         self.switch = switch
         self.mode = None if self.levels is None else rng.integers(len(self.levels), size=particles.shape[:2])
+        self.applied = np.zeros((*particles.shape[:2], 2))  # (M, N) the ground force each particle moved by last
 
     @property
     def logw(self) -> np.ndarray:
@@ -104,9 +105,11 @@ class ParticleFilter:
             _affine_rows(x, None, controls @ b.T)
         else:  # a diagonal Q (every mission file's): L z is a scaling, done with B u in one wide pass
             x += _affine_rows(noise, np.diagonal(q_chol), controls @ b.T)
+        self.applied[:] = controls[:, None, :2]
         if split is not None:
             mask, other = split
             x += mask[..., None] * ((other - controls) @ b.T)[:, None, :]
+            np.copyto(self.applied, other[:, None, :2], where=mask[..., None])
         self.particles = x
 
     def update(self, loglik: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -155,6 +158,7 @@ class ParticleFilter:
         self.particles[rows] = picked
         if self.mode is not None:
             self.mode[rows] = self.mode.reshape(-1).take(flat).reshape(rows.size, n)
+        self.applied[rows] = self.applied.reshape(m * n, 2).take(flat, axis=0).reshape(rows.size, n, 2)
         logw = self.logw.copy()
         logw[rows] = -np.log(n)
         self.logw = logw
@@ -289,6 +293,18 @@ class ParticleBelief:
                 split: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         self.pf.predict(self.rng, dynamics.a, dynamics.b, dynamics.q_chol, controls, split)
 
+    def applied(self, mask: np.ndarray | None = None) -> np.ndarray:
+        """The weighted mean of the ground force the particles moved by last: ``(M, 2)``
+        of each cloud, or with ``mask (M, N)`` ``(M, 2, 2)`` of each half (False, True;
+        an empty half's is the cloud's)."""
+        w, f = self.pf.weights, self.pf.applied
+        if mask is None:
+            return np.einsum("mn,mni->mi", w, f)
+        parts = np.stack([w * ~mask, w * mask], axis=1)  # (M, 2, N)
+        mass = parts.sum(axis=2, keepdims=True)
+        parts = np.where(mass > 0, parts / np.where(mass > 0, mass, 1.0), w[:, None, :])
+        return np.einsum("mhn,mni->mhi", parts, f)
+
     def halves(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The cloud in two (:func:`halves`): ``mask (M, N)`` (True: the second half), each
         half's weight ``mass (M, 2)``, mean ``(M, 2, 6)`` and covariance ``(M, 2, 6, 6)``
@@ -349,6 +365,9 @@ class ParticleBelief:
         idx = systematic_indices(self.rng, self.pf.weights[rows], keep)
         kept = np.take_along_axis(self.pf.particles[rows], idx[..., None], axis=1)
         self.pf.particles[rows] = np.concatenate([kept, fresh], axis=1)
+        kept_force = np.take_along_axis(self.pf.applied[rows], idx[..., None], axis=1)
+        self.pf.applied[rows] = np.concatenate([kept_force, np.broadcast_to(
+            kept_force.mean(axis=1, keepdims=True), (*fresh.shape[:2], 2))], axis=1)
         if self.pf.mode is not None:
             self.pf.mode[rows] = np.concatenate([np.take_along_axis(self.pf.mode[rows], idx, axis=1), self.rng.integers(
                 len(self.pf.levels), size=fresh.shape[:2])], axis=1)

@@ -11,8 +11,9 @@ Two routes to the same program:
   same optima.  cvxpy refuses to hand a mixed-integer QP to HiGHS (HiGHS has no MIQP),
   but its HiGHS QP interface compiles one once told binaries are allowed.
 
-Only right-hand sides depend on the parameters ``theta = [x0 (4), goal (2)]``, affinely,
-so a re-plan costs a 6-column matvec.
+Only right-hand sides depend on the parameters ``theta = [x0 (4), goal (2), applied (2)]``
+(``applied``: the force applied the step before, kN, read only with the link term of
+:attr:`.model.GuidanceConfig.link`), affinely, so a re-plan costs an 8-column matvec.
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ import scipy.sparse as sp
 from .model import KN, P1, Geometry
 
 INF = highspy.kHighsInf
+N_THETA = 8  # parameters: x0 (4), goal (2), the force applied the step before (2)
 
 
 @cache
@@ -48,7 +50,7 @@ def _miqp_data() -> type:
 class Compiled:
     """P1 compiled by cvxpy to ``row_lo <= a z <= row_hi``, ``col_lo <= z <= col_hi``.
 
-    Right-hand sides are affine in the parameters ``theta = [x0 (4), goal (2)]``:
+    Right-hand sides are affine in the parameters ``theta = [x0 (4), goal (2), applied (2)]``:
     ``row_lo = lo0 + lo_map theta`` (likewise hi), found once by evaluating cvxpy's
     parametric program; the matrix does not depend on theta (checked).
     """
@@ -62,7 +64,7 @@ class Compiled:
     col_lo: np.ndarray
     col_hi: np.ndarray
     y_cols: np.ndarray  # (T-1, 4n) column of each binary
-    term_cols: np.ndarray  # (K,) columns of e and d
+    term_cols: np.ndarray  # (K,) columns of e, d and (with the link term) u_0 - applied
     term_w: np.ndarray  # (K,) objective weights w_k
     n_terms_e: int  # the first n_terms_e terms are e (metres), the rest d (kN)
     x_cols: np.ndarray  # (T+1, 4)
@@ -77,6 +79,8 @@ class Compiled:
         return self.a.shape[1]
 
     def rows(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Row bounds at ``theta``: ``[x0, goal]`` or ``[x0, goal, applied]`` (applied zero if left out)."""
+        theta = np.r_[theta, np.zeros(N_THETA - len(theta))]
         return self.lo0 + self.lo_map @ theta, self.hi0 + self.hi_map @ theta
 
 
@@ -91,12 +95,16 @@ def compile_p1(p1: P1) -> Compiled:
     import cvxpy as cp
 
     p1.x0.value, p1.goal.value = np.zeros(4), np.zeros(2)
+    if p1.applied is not None:
+        p1.applied.value = np.zeros(2)
     data, _, _ = p1.problem.get_problem_data(solver=_miqp_data()(), canon_backend=cp.SCIPY_CANON_BACKEND)
     pp = data[cp.settings.PARAM_PROB]
     n_eq = data["n_eq"]
 
     def evaluate(theta):
-        p1.x0.value, p1.goal.value = theta[:4], theta[4:]
+        p1.x0.value, p1.goal.value = theta[:4], theta[4:6]
+        if p1.applied is not None:
+            p1.applied.value = theta[6:]
         _, _, _, af, bg = pp.apply_parameters(quad_obj=True)
         sign = np.r_[np.ones(n_eq), -np.ones(af.shape[0] - n_eq)]
         a = sp.diags(sign) @ af  # equalities a z = -bg; inequalities -af z <= bg
@@ -104,10 +112,10 @@ def compile_p1(p1: P1) -> Compiled:
         hi = np.r_[-bg[:n_eq], bg[n_eq:]]
         return sp.csr_matrix(a), lo, hi
 
-    a, lo0, hi0 = evaluate(np.zeros(6))
-    lo_map, hi_map = np.zeros((len(lo0), 6)), np.zeros((len(lo0), 6))
-    for k in range(6):
-        a_k, lo_k, hi_k = evaluate(np.eye(6)[k])
+    a, lo0, hi0 = evaluate(np.zeros(N_THETA))
+    lo_map, hi_map = np.zeros((len(lo0), N_THETA)), np.zeros((len(lo0), N_THETA))
+    for k in range(N_THETA if p1.applied is not None else 6):
+        a_k, lo_k, hi_k = evaluate(np.eye(N_THETA)[k])
         if (a_k != a).nnz:
             raise RuntimeError("P1 compiled with a parameter-dependent matrix; expected RHS only")
         with np.errstate(invalid="ignore"):
@@ -123,7 +131,8 @@ def compile_p1(p1: P1) -> Compiled:
     if sp.triu(data["P"], 1).nnz or sp.tril(data["P"], -1).nnz:
         raise RuntimeError("P1 objective is expected to be a diagonal sum of squares")
     e_cols, d_cols = _cols(pp, p1.e), _cols(pp, p1.d).reshape(-1)
-    term_cols = np.r_[e_cols, d_cols].astype(np.int32)
+    link_cols = _cols(pp, p1.link) if p1.link is not None else np.zeros(0, int)
+    term_cols = np.r_[e_cols, d_cols, link_cols].astype(np.int32)
     is_y = np.zeros(n, bool)
     is_y[y_cols] = True
     nz_rows = np.repeat(np.arange(a.shape[0]), np.diff(a.indptr))
@@ -147,14 +156,16 @@ def compile_p1(p1: P1) -> Compiled:
 
 
 def assemble_p1(geom: Geometry, dt: float, friction: float, mass: float, horizon: int, rho: float,
-                force_max: float) -> Compiled:
+                force_max: float, link: bool = False) -> Compiled:
     """The program of :func:`compile_p1`, written row by row (see module docstring).
 
     Columns: ``x (T+1, 4)`` row-major, ``u (T, 2)``, ``e (2,)``, ``d (T-1, 2)`` stored
-    column-major as cvxpy does (all d_x, then all d_y), ``y (T-1, n, F)``.  Rows, in
+    column-major as cvxpy does (all d_x, then all d_y), ``y (T-1, n, F)``, and with
+    ``link`` ``k (2,)`` = ``u_0 - applied`` (weighted rho, the last terms).  Rows, in
     order: start (8c), position and velocity dynamics (8b), terminal error, control
-    increments, force bounds, speed polygon, area (8f), avoidance (8d) and one face per
-    obstacle and step (8e).  ``rho`` and ``force_max`` in the model's units (kN).
+    increments, force bounds, speed polygon, area (8f), avoidance (8d), one face per
+    obstacle and step (8e), and the link's definition.  ``rho`` and ``force_max`` in the
+    model's units (kN).
     """
     t, (n, f) = horizon, geom.face_offsets.shape
     x_cols = np.arange((t + 1) * 4).reshape(t + 1, 4)
@@ -162,14 +173,15 @@ def assemble_p1(geom: Geometry, dt: float, friction: float, mass: float, horizon
     e_cols = u_cols.size + x_cols.size + np.arange(2)
     d_cols = e_cols[-1] + 1 + np.arange((t - 1) * 2).reshape(2, t - 1).T  # column-major, as cvxpy
     y_cols = d_cols.size + e_cols[-1] + 1 + np.arange((t - 1) * n * f).reshape(t - 1, n * f)
-    n_cols = y_cols.size + d_cols.size + e_cols[-1] + 1
+    k_cols = y_cols.size + d_cols.size + e_cols[-1] + 1 + np.arange(2 if link else 0)
+    n_cols = k_cols[-1] + 1 if link else y_cols.size + d_cols.size + e_cols[-1] + 1
     rows = _Rows()
     k = np.arange(t)
-    rows.eq(x_cols[0].reshape(4, 1), [1.0], param=np.eye(4, 6))  # x_0 = x0
+    rows.eq(x_cols[0].reshape(4, 1), [1.0], param=np.eye(4, N_THETA))  # x_0 = x0
     for i in range(2):  # p_{k+1} - p_k - dt v_k = 0 and v_{k+1} - (1 - eps) v_k - gain u_k = 0
         rows.eq(np.c_[x_cols[k + 1, i], x_cols[k, i], x_cols[k, 2 + i]], [1.0, -1.0, -dt])
         rows.eq(np.c_[x_cols[k + 1, 2 + i], x_cols[k, 2 + i], u_cols[k, i]], [1.0, -(1.0 - friction), -dt * KN / mass])
-    rows.eq(np.c_[e_cols, x_cols[t, :2]], [1.0, -1.0], param=-np.eye(2, 6, 4))  # e = p_T - goal
+    rows.eq(np.c_[e_cols, x_cols[t, :2]], [1.0, -1.0], param=-np.eye(2, N_THETA, 4))  # e = p_T - goal
     kd = np.arange(t - 1)
     for i in range(2):
         rows.eq(np.c_[d_cols[kd, i], u_cols[kd + 1, i], u_cols[kd, i]], [1.0, -1.0, 1.0])
@@ -197,15 +209,18 @@ def assemble_p1(geom: Geometry, dt: float, friction: float, mass: float, horizon
         sum_rows = np.arange(sums, rows.count)
     else:
         sum_rows = np.zeros(0, int)
+    if link:  # k - u_0 = -applied
+        rows.eq(np.c_[k_cols, u_cols[0]], [1.0, -1.0], param=-np.eye(2, N_THETA, 6))
+        row_y = np.r_[row_y, np.full(2, -1)]
     a, lo0, hi0, lo_map, hi_map = rows.build(n_cols)
     col_lo, col_hi = np.full(n_cols, -INF), np.full(n_cols, INF)
     col_lo[y_cols], col_hi[y_cols] = 0.0, 1.0
-    term_cols = np.r_[e_cols, d_cols.T.reshape(-1)].astype(np.int32)
+    term_cols = np.r_[e_cols, d_cols.T.reshape(-1), k_cols].astype(np.int32)
     return Compiled(
         a=a, lo0=lo0, hi0=hi0, lo_map=lo_map, hi_map=hi_map,
         param_rows=np.flatnonzero(np.any(lo_map != 0, axis=1)).astype(np.int32),
         col_lo=col_lo, col_hi=col_hi, y_cols=y_cols.astype(np.int32), term_cols=term_cols,
-        term_w=np.r_[1.0, 1.0, np.full(2 * (t - 1), rho)], n_terms_e=2, x_cols=x_cols, u_cols=u_cols,
+        term_w=np.r_[1.0, 1.0, np.full(2 * (t - 1) + len(k_cols), rho)], n_terms_e=2, x_cols=x_cols, u_cols=u_cols,
         sum_rows=sum_rows.astype(np.int32), row_y=row_y, normals=geom.face_normals,
         terminal_rows=np.array(terminal_rows),
     )
@@ -213,7 +228,7 @@ def assemble_p1(geom: Geometry, dt: float, friction: float, mass: float, horizon
 
 class _Rows:
     """Sparse rows collected in blocks: ``cols (r, k)`` with coefficients ``(k,)`` or
-    ``(r, k)``; bounds per block; ``param (rows_per_block..., 6)`` the RHS map."""
+    ``(r, k)``; bounds per block; ``param (rows_per_block..., N_THETA)`` the RHS map."""
 
     def __init__(self):
         self.blocks, self.count = [], 0
@@ -223,7 +238,7 @@ class _Rows:
         coef = np.broadcast_to(np.asarray(coef, float), cols.shape)
         r = cols.shape[0]
         self.blocks.append((cols, coef, np.broadcast_to(lo, (r,)), np.broadcast_to(hi, (r,)),
-                            np.zeros((r, 6)) if param is None else np.asarray(param, float)))
+                            np.zeros((r, N_THETA)) if param is None else np.asarray(param, float)))
         self.count += r
 
     def eq(self, cols, coef, param=None):

@@ -70,7 +70,9 @@ class Reach:
     * growth: around the obstacle-free optimum ``u0`` (minimiser of f over the convex
       set C0 of plans without obstacle constraints) every u in C0 has
       ``f(u) - f(u0) >= (u - u0)' H (u - u0)`` (exact Taylor expansion of the quadratic f
-      plus first-order optimality), ``H = g_T g_T' + rho D'D`` per axis.  Every plan of P1
+      plus first-order optimality), ``H = g_T g_T' + rho D'D`` per axis (D the increments,
+      with the link term of :class:`.model.GuidanceConfig` also ``u_0`` itself: the applied
+      force is a constant).  Every plan of P1
       is in C0, so ``f <= UB`` implies ``|p_tau - p0_tau|_2 <= sigma_tau sqrt(UB - f0)``
       with ``sigma_tau^2 = g_tau' H^-1 g_tau`` (the two axes share one budget).
 
@@ -89,7 +91,8 @@ class Reach:
     force: np.ndarray  # per-axis reach under the force bound, m
 
     @classmethod
-    def build(cls, dt, friction, mass, horizon, rho_model, v_max, force_max_model, area_lo, area_hi) -> "Reach":
+    def build(cls, dt, friction, mass, horizon, rho_model, v_max, force_max_model, area_lo, area_hi,
+              link: bool = False) -> "Reach":
         """From the model's sensitivities (per axis; forces in model units, see :mod:`.model`)."""
         from .model import KN
 
@@ -103,6 +106,8 @@ class Reach:
             free_p[tau] = free_p[tau - 1] + dt * free_v[tau - 1]
             free_v[tau] = (1.0 - friction) * free_v[tau - 1]
         d = np.diff(np.eye(horizon), axis=0)
+        if link:
+            d = np.vstack([np.eye(1, horizon), d])
         w, v = np.linalg.eigh(np.outer(g_p[-1], g_p[-1]) + rho_model * d.T @ d)
         # g' H^-1 g in H's eigenbasis; a direction H does not resolve (rho = 0, or so small
         # that H is singular to rounding) leaves p_tau unbounded there: an infinite radius

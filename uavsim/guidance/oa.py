@@ -205,8 +205,10 @@ class OuterApproximation:
     # ------------------------------------------------------------------ public
     def solve(self, x0: np.ndarray, goal: np.ndarray, budget: Budget,
               warm: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-              box: tuple[np.ndarray, np.ndarray] | None = None) -> Solution:
-        """Solve P1 from ``x0 = [p_x, p_y, v_x, v_y]`` towards ``goal (2,)`` within ``budget``.
+              box: tuple[np.ndarray, np.ndarray] | None = None, applied: np.ndarray | None = None) -> Solution:
+        """Solve P1 from ``x0 = [p_x, p_y, v_x, v_y]`` towards ``goal (2,)`` within ``budget``;
+        ``applied (2,)``: the force applied last (kN), which only a program with the link
+        term reads (:class:`.model.GuidanceConfig`).
 
         ``box = (lo (2,), hi (2,))``: a hard terminal, ``p_T`` in that region (the area
         rows of ``p_T`` are tightened to it); a proof that no plan ends there says so in
@@ -224,21 +226,24 @@ class OuterApproximation:
         are dropped for the first 1, 2, 4, ... steps until a plan exists; the plan says
         from which step it avoids them, as for :func:`.faces.stuck_pairs`.
         """
-        sol = self._solve(x0, goal, budget, warm, 0, box=box)
+        theta = np.r_[x0, goal, np.zeros(2) if applied is None else applied]
+        sol = self._solve(theta, budget, warm, 0, box=box)
         p1 = x0[:2] + self.reach.dt * x0[2:]
         reach = self.reach.v_max * self.reach.dt
         near = np.all((p1 >= self.geom.lo - reach) & (p1 <= self.geom.hi + reach), axis=1)  # (n,)
         escape = 1
         while (sol.status == "infeasible" and sol.message not in (NO_PLAN_AT_ALL, UNREACHABLE) and near.any()
                and escape < self.shape[0]):
-            sol = self._solve(x0, goal, budget, warm, escape, near, box)
+            sol = self._solve(theta, budget, warm, escape, near, box)
             escape *= 2
         return replace(sol, work=budget.spent)
 
-    def _solve(self, x0, goal, budget, warm, escape: int, near: np.ndarray | None = None, box=None) -> Solution:
-        """:meth:`solve` with the obstacles ``near (n,)`` dropped for the first ``escape`` steps."""
+    def _solve(self, theta, budget, warm, escape: int, near: np.ndarray | None = None, box=None) -> Solution:
+        """:meth:`solve` at the parameters ``theta = [x0, goal, applied]`` with the obstacles
+        ``near (n,)`` dropped for the first ``escape`` steps."""
+        x0, goal = theta[:4], theta[4:6]
         b = np.broadcast_to(self.offsets[None], self.shape)  # face offsets of every step
-        lo, hi = self.c.rows(np.r_[x0, goal])
+        lo, hi = self.c.rows(theta)
         if box is not None:
             rows = self.c.terminal_rows
             lo[rows], hi[rows] = np.maximum(lo[rows], box[0]), np.minimum(hi[rows], box[1])
@@ -292,11 +297,12 @@ class OuterApproximation:
         return self.qp.reference(lo, hi, plan) if self.reference_plans else plan
 
     def with_faces(self, x0: np.ndarray, goal: np.ndarray, y: np.ndarray,
-                   box: tuple[np.ndarray, np.ndarray] | None = None) -> QpSolution | None:
-        """P1 from ``x0`` with the face choice ``y (T-1, n, F)`` fixed: one QP (None if it
-        has no plan).  Where ``y`` is the optimal choice of a nearby start, this is the
-        optimum's branch of P1, which is piecewise affine in the start."""
-        lo, hi = self.c.rows(np.r_[x0, goal])
+                   box: tuple[np.ndarray, np.ndarray] | None = None,
+                   applied: np.ndarray | None = None) -> QpSolution | None:
+        """P1 from ``x0`` (``applied``: see :meth:`solve`) with the face choice ``y (T-1, n,
+        F)`` fixed: one QP (None if it has no plan).  Where ``y`` is the optimal choice of a
+        nearby start, this is the optimum's branch of P1, which is piecewise affine in the start."""
+        lo, hi = self.c.rows(np.r_[x0, goal, np.zeros(2) if applied is None else applied])
         if box is not None:
             rows = self.c.terminal_rows
             lo[rows], hi[rows] = np.maximum(lo[rows], box[0]), np.minimum(hi[rows], box[1])
