@@ -67,7 +67,7 @@ class ReplayedGuidance:
     def __getattr__(self, name):  # the geometry and the rest: the real guidance's
         return getattr(self.inner, name)
 
-    def replan(self, mean, cov, goal, previous, step, shift=1):
+    def replan(self, mean, cov, goal, previous, step, shift=1, applied=None):
         return self._next()
 
     def sensitivity(self, start, goal, plan, step=0):  # the truth's, for the PCRLB only

@@ -349,6 +349,8 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
         del data["filter"]["noise_scales"], data["filter"]["scale_switch"]
     if data["guidance"]["terminal"] == "soft":  # likewise
         del data["guidance"]["terminal"]
+    if not data["guidance"]["link"]:  # P1 without the link term: as before
+        del data["guidance"]["link"]
     if data.get("sensor"):  # the sensor's world is the mission's, hashed once; no line of sight: as before
         del data["sensor"]["world"]
         if not data["sensor"]["line_of_sight"]:

@@ -118,8 +118,8 @@ class RecordingGuidance:
     def __init__(self, guidance):
         self.inner, self.controls, self.means = guidance, [], []
 
-    def replan(self, mean, cov, goal, previous, step, shift=1):
-        return self.plan(mean, cov, goal, warm=previous, step=step, shift=shift)
+    def replan(self, mean, cov, goal, previous, step, shift=1, applied=None):
+        return self.plan(mean, cov, goal, warm=previous, step=step, shift=shift, applied=applied)
 
     def sensitivity(self, *args, **kw):  # the truth's, for the PCRLB: its plans are not recorded
         return self.inner.sensitivity(*args, **kw)
