@@ -194,8 +194,7 @@ class Simulation:
                 shift: int = 1, applied: np.ndarray | None = None) -> Plan:
         """A re-plan warm-started from ``warm`` (made ``shift`` steps ago); ``applied (2,)``:
         the mean force the particles it moves moved by last (:meth:`.guidance.Guidance.linked`)."""
-        plan = self.guidance.replan(mean, cov, self.m.goals[j], warm, self.t, shift,
-                                    None if applied is None or self.t == 0 else applied)
+        plan = self.guidance.replan(mean, cov, self.m.goals[j], warm, self.t, shift, applied)
         if plan.eventful:
             events.append(f"{self.m.targets[j].name} ({who}): {plan.message}")
         return plan

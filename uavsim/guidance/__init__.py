@@ -200,7 +200,7 @@ class Guidance:
 
         t0 = time.perf_counter()
         horizon = self.horizon_at(step)
-        link = self.linked(mean, applied, step)
+        link = self.linked(applied, step)
         key = None
         if warm is None:  # e.g. every trial's filter plans from the prior: the same inputs, the same plan
             key = np.r_[mean, cov.ravel(), goal, horizon, link].tobytes()
@@ -216,7 +216,7 @@ class Guidance:
             self._cold[key] = plan
         return plan
 
-    def linked(self, mean: np.ndarray, applied: np.ndarray | None, step: int) -> np.ndarray:
+    def linked(self, applied: np.ndarray | None, step: int) -> np.ndarray:
         """``(2,)`` the force (kN) the link term of a plan at ``step`` weighs its first force
         against: ``applied``; zero without ``link_applied_force`` (nothing reads it) and where
         no force comes before the plan (``applied`` None, or the first plan of a new
@@ -225,8 +225,9 @@ class Guidance:
         Zero, not the force that would hold the start's velocity against friction: that one
         grows with the velocity, which a filter knows least at the start; every particle
         of a half moves by one plan's force, so a force proportional to each particle's
-        own velocity would fit none of them (measured on a Helsinki crop: the filter's
-        forces missed the truth's by a median of 1 040 N, against 331 N with zero)."""
+        own velocity would fit none of them (in an exploratory run, 3 trials on a Helsinki
+        crop, the filter's forces missed the truth's by a median of 1 040 N with that
+        force, 331 N with zero)."""
         fresh = applied is None or (self.cfg.horizon_mode == "shrinking" and step % self.cfg.horizon == 0)
         if not self.cfg.link or fresh:
             return np.zeros(2)
@@ -268,7 +269,7 @@ class Guidance:
         if self.solver != "scip" and plan.faces is not None:
             _, oa = self._model(len(plan.controls))
             box = self._region(goal) if self.cfg.terminal == "hard" and not plan.unreachable else None
-            sol = oa.with_faces(start[[0, 1, 3, 4]], goal[:2], plan.faces, box, self.linked(start, None, step))
+            sol = oa.with_faces(start[[0, 1, 3, 4]], goal[:2], plan.faces, box, self.linked(None, step))
             if sol is not None:
                 controls = np.column_stack([sol.u * KN, np.zeros(len(sol.u))])
                 return self.dynamics.predict_moments(start, zero, controls)[0]
