@@ -1,7 +1,7 @@
 """Why the towns' beliefs are wider than their errors: the filter's forces against the truth's.
 
     python benchmarks/consistency.py [--worlds osm-small] [--trials 10] [--steps 20] [--force-trials 5]
-                                     [--workers 2] [--out runs/consistency] [--json PATH]
+                                     [--link] [--workers 2] [--out runs/consistency] [--json PATH]
 
 Each world's mission as ``benchmarks/towns.py`` makes it (8 targets; an imported town has line
 of sight on), flown by the optimized UAV.
@@ -18,6 +18,10 @@ of sight on), flown by the optimized UAV.
   NEES (mean, median against chi-square(2)'s 1.39, share of steps in its band) and what a
   calibrated filter with the same beliefs would have in band
   (:func:`uavsim.metrics.consistency`).
+
+``--link``: every mission with P1's link term (``[guidance] link_applied_force``; the truth's
+plans too), the re-plan from the true state linked to the truth's own last force.
+``--trials 0`` measures the forces only.
 """
 
 from __future__ import annotations
@@ -37,10 +41,11 @@ QUIET = 30.0  # the quieter levels: the mission's divided by this
 VARIANTS = ("filter", "truth's forces", "truth's forces, levels / 30")
 
 
-def forces(world: str, k: int, steps: int, paths: dict) -> np.ndarray:
+def forces(world: str, k: int, steps: int, paths: dict, extra: dict) -> np.ndarray:
     """``(steps x M, 4)`` per target-step: |truth - re-plan from the truth|, |truth - nearest
-    half's plan|, |truth| (N), and 1 where the re-plan from the truth was certified optimal."""
-    m = load_mission(paths[world], {"steps": steps})
+    half's plan|, |truth| (N), and 1 where the re-plan from the truth was certified optimal;
+    ``extra``: mission overrides."""
+    m = load_mission(paths[world], {"steps": steps, **extra})
     rows = []
     with one_blas_thread():
         sim = Simulation(m, "optimized", kept_guidance(m))
@@ -63,8 +68,8 @@ def forces(world: str, k: int, steps: int, paths: dict) -> np.ndarray:
     return np.array(rows)
 
 
-def trial(world: str, variant: str, k: int, trials: int, steps: int, paths: dict) -> dict:
-    over = {"steps": steps, "trials": trials}
+def trial(world: str, variant: str, k: int, trials: int, steps: int, paths: dict, extra: dict) -> dict:
+    over = {"steps": steps, "trials": trials, **extra}
     if variant.endswith("/ 30"):
         over["filter.noise_scales"] = [s / QUIET for s in load_mission(paths[world]).filter.noise_scales]
     m = load_mission(paths[world], over)
@@ -85,8 +90,9 @@ def main(args) -> dict:
     out = Path(args.out)
     worlds = args.worlds.split(",")
     paths = {w: mission_file(w, 8, out / w) for w in worlds}  # written once, before the workers read them
+    extra = {"guidance.link_applied_force": True} if args.link else {}
     cells = [(w, k) for w in worlds for k in range(args.force_trials)]
-    done = run_cells(forces, cells, (args.steps, paths), args.workers, "forces")
+    done = run_cells(forces, cells, (args.steps, paths, extra), args.workers, "forces")
     rows = []
     for w in worlds:
         f = np.concatenate([done[(w, k)] for k in range(args.force_trials) if (w, k) in done])
@@ -96,14 +102,15 @@ def main(args) -> dict:
                      "half_quantiles": np.percentile(f[:, 1], q).tolist(),
                      "half_above_100": float(np.mean(f[:, 1] > 100)), "force_median": float(np.median(f[:, 2]))})
     cells = [(w, v, k) for w in worlds for v in VARIANTS for k in range(args.trials)]
-    done = run_cells(trial, cells, (args.trials, args.steps, paths), args.workers, "trial")
+    done = run_cells(trial, cells, (args.trials, args.steps, paths, extra), args.workers, "trial")
     oracle = [{"world": w, "variant": v, "trials": args.trials,
                **summary([done[(w, v, k)] for k in range(args.trials) if (w, v, k) in done])}
-              for w in worlds for v in VARIANTS]
+              for w in worlds for v in VARIANTS] if args.trials else []
     print(force_table(rows))
-    print()
-    print(oracle_table(oracle))
-    return {"forces": rows, "oracle": oracle}
+    if oracle:
+        print()
+        print(oracle_table(oracle))
+    return {"forces": rows, "oracle": oracle, "link": args.link}
 
 
 def force_table(rows: list[dict]) -> str:
@@ -134,6 +141,7 @@ if __name__ == "__main__":
     ap.add_argument("--trials", type=int, default=10)
     ap.add_argument("--steps", type=int, default=20)
     ap.add_argument("--force-trials", type=int, default=5)
+    ap.add_argument("--link", action="store_true", help="P1 with the link term (guidance.link_applied_force)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default="runs/consistency")
     run(main, ap)

@@ -359,16 +359,18 @@ def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | 
     return out
 
 
-def tables_consistency(data: dict | None) -> dict[str, str]:
+def tables_consistency(data: dict | None, name: str = "towns-consistency") -> dict[str, str]:
     """Why the towns' beliefs are wide (``consistency.py``): the filter's forces against the
-    truth's, and the NEES with the truth's own forces."""
+    truth's, and (where measured) the NEES with the truth's own forces."""
     if data is None:
         return {}
     f, s = data["figures"], data["settings"]
-    return {"towns-consistency": consistency.force_table(f["forces"]) + "\n\n"
-            + consistency.oracle_table(f["oracle"]) + f"\n\nForces: {s['force_trials']} trials of {s['steps']} steps a "
-            f"world; NEES: {s['trials']} trials of {s['steps']} steps a row, the same trials in every row of a world. "
-            + provenance(data)}
+    forces = f"Forces: {s['force_trials']} trials of {s['steps']} steps a world"
+    if not f["oracle"]:
+        return {name: consistency.force_table(f["forces"]) + f"\n\n{forces}. " + provenance(data)}
+    return {name: consistency.force_table(f["forces"]) + "\n\n" + consistency.oracle_table(f["oracle"])
+            + f"\n\n{forces}; NEES: {s['trials']} trials of {s['steps']} steps a row, the same trials in every row "
+            "of a world. " + provenance(data)}
 
 
 def tables_bo_standard(data: dict | None) -> dict[str, str]:
@@ -449,7 +451,8 @@ def pages() -> dict[Path, dict[str, str]]:
             DOCS / "results" / "towns.md": {**tables_towns(
                 _load(DATA / "osm-import.json"), _load(DATA / "budget.json"), _load(DATA / "plan-of-work.json"),
                 _load(DATA / "towns.json"), {name: _load(DATA / f) for name, f in TOWN_CAMPAIGNS.items()},
-                _load(DATA / "line-of-sight.json")), **tables_consistency(_load(DATA / "consistency.json"))},
+                _load(DATA / "line-of-sight.json")), **tables_consistency(_load(DATA / "consistency.json")),
+                **tables_consistency(_load(DATA / "consistency-link.json"), "towns-consistency-link")},
             DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
                                                 **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
                                                                    "lookahead-clusters2")},
