@@ -194,6 +194,16 @@ def halves(particles: np.ndarray, weights: np.ndarray, iters: int = 10) -> np.nd
     return side[np.arange(len(z)), np.argmax(between, axis=1)]
 
 
+def half_weights(weights: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(parts (M, 2, N), mass (M, 2))``: the weights ``(M, N)`` of each half of a split
+    ``mask (M, N)`` (False, True), renormalised within the half (an empty half takes the
+    whole cloud's), and each half's share of the weight."""
+    parts = np.stack([weights * ~mask, weights * mask], axis=1)
+    mass = parts.sum(axis=2)
+    safe = np.where(mass > 0, mass, 1.0)[..., None]
+    return np.where(mass[..., None] > 0, parts / safe, weights[:, None, :]), mass
+
+
 def _centres(z, weights, side):
     """Weighted centres ``(M, D, 4)`` and masses ``(M, D)`` of both sides of ``D`` splits
     of a cloud ``z (M, N, 4)`` with weighted mean zero (an empty side has mass 0; its centre means nothing)."""
@@ -297,27 +307,17 @@ class ParticleBelief:
         """The weighted mean of the ground force the particles moved by last: ``(M, 2)``
         of each cloud, or with ``mask (M, N)`` ``(M, 2, 2)`` of each half (False, True;
         an empty half's is the cloud's)."""
-        w, f = self.pf.weights, self.pf.applied
         if mask is None:
-            return np.einsum("mn,mni->mi", w, f)
-        parts = np.stack([w * ~mask, w * mask], axis=1)  # (M, 2, N)
-        mass = parts.sum(axis=2, keepdims=True)
-        parts = np.where(mass > 0, parts / np.where(mass > 0, mass, 1.0), w[:, None, :])
-        return np.einsum("mhn,mni->mhi", parts, f)
+            return np.einsum("mn,mni->mi", self.pf.weights, self.pf.applied)
+        return np.einsum("mhn,mni->mhi", half_weights(self.pf.weights, mask)[0], self.pf.applied)
 
     def halves(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The cloud in two (:func:`halves`): ``mask (M, N)`` (True: the second half), each
         half's weight ``mass (M, 2)``, mean ``(M, 2, 6)`` and covariance ``(M, 2, 6, 6)``
         (those of an empty half are the whole cloud's)."""
-        w = self.pf.weights
-        mask = halves(self.pf.particles, w)
-        mass = np.stack([(w * ~mask).sum(axis=1), (w * mask).sum(axis=1)], axis=1)
-        safe, means, covs = np.where(mass > 0, mass, 1.0), [], []
-        for h, part in enumerate((~mask, mask)):
-            wh = np.where(mass[:, h:h + 1] > 0, w * part / safe[:, h:h + 1], w)
-            mu, cov = weighted_moments(self.pf.particles, wh)
-            means.append(mu)
-            covs.append(cov)
+        mask = halves(self.pf.particles, self.pf.weights)
+        parts, mass = half_weights(self.pf.weights, mask)
+        means, covs = zip(*(weighted_moments(self.pf.particles, parts[:, h]) for h in range(2)))
         return mask, mass, np.stack(means, axis=1), np.stack(covs, axis=1)
 
     def update(self, scans: list[Scan], observers: np.ndarray, sensor: BearingModel) -> list[str]:
