@@ -20,7 +20,9 @@ of sight on), flown by the optimized UAV.
   (:func:`uavsim.metrics.consistency`).
 
 ``--link``: every mission with P1's link term (``[guidance] link_applied_force``; the truth's
-plans too), the re-plan from the true state linked to the truth's own last force.
+plans too), the re-plan from the true state linked to the truth's own last force (a planned
+truth's, as ``towns.py`` makes them; a stochastic truth's last plan is gone by then, and its
+re-plan links to zero).
 ``--trials 0`` measures the forces only.
 """
 
