@@ -77,6 +77,20 @@ def test_credible_level_by_hand():
     assert metrics.credible_level(np.array([[2.0, 1.0]]), mean, cov2)[0] == pytest.approx(1 - np.exp(-1.0))
 
 
+def test_a_truth_on_the_95_percent_edge_is_inside():
+    """300 equally weighted particles, 285 of them nearer than the truth: its level is
+    285 / 300 = 0.95 exactly, on the edge of the 95% region (closed: inside), whichever
+    side of 0.95 the rounding of the weights' sum lands (here 0.95 + 1.1e-16; a CPU that
+    sums in another order may land below); one particle more (0.9533) is outside."""
+    w = np.full((1, 300), 1.0 / 300)
+    d = np.r_[np.arange(1.0, 286.0), np.arange(300.0, 315.0)][None, :, None] * [1.0, 0.0]
+    level = metrics.credible_level(np.array([[285.5, 0.0]]), np.zeros((1, 2)), np.eye(2)[None], d, w)
+    assert level[0] == pytest.approx(0.95, abs=1e-15)
+    for lv in (level, np.nextafter(0.95, 1.0)[None], np.nextafter(0.95, 0.0)[None]):
+        assert metrics.calibration(lv[None, None])["outside_95"] == 0.0
+    assert metrics.calibration(np.array([[[286 / 300]]]))["outside_95"] == 1.0
+
+
 def test_credible_level_is_uniform_for_a_calibrated_heavy_tailed_belief():
     """Truths and 4000 particles drawn from one heavy-tailed mixture (90% N(0, I), 10%
     N(0, 25 I)), 2000 trials: the level's mean is 0.5 within 4 s.e. (s.e. 0.0065 =
