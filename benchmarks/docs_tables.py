@@ -314,6 +314,21 @@ def tables_memory(data: dict | None) -> dict[str, str]:
                                rows) + "\n\n" + provenance(data)}
 
 
+def tables_angles(before: dict | None, after: dict | None) -> dict[str, str]:
+    """The decision on a CPU whose numpy arctan2 is scalar, before and after the residuals'
+    polynomial (``line_of_sight.py`` at two commits, the same flights)."""
+    if before is None or after is None:
+        return {}
+    rows = [[a["world"], a["step"], a["candidates"], *_versus(b["decide_ms_off"], a["decide_ms_off"], "{:.1f}"),
+             *_versus(b["decide_ms_on"], a["decide_ms_on"], "{:.1f}"), f"{b['decide_ratio']:.2f}",
+             f"{a['decide_ratio']:.2f}"]
+            for b, a in zip(before["figures"]["rows"], after["figures"]["rows"], strict=True)]
+    return {"speed-angles": md(["world", "after steps", "moves", "decision ms, no line of sight: arctan2",
+                                "polynomial", "speed-up", "with line of sight: arctan2", "polynomial", "speed-up",
+                                "line of sight / none: arctan2", "polynomial"], rows)
+            + "\n\nBefore: " + provenance(before) + "\n\nAfter: " + provenance(after)}
+
+
 TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name -> JSON
     "towns-tracking": "tracking.json", "towns-line-of-sight": "tracking-line-of-sight.json",
     "towns-tracking-budget": "tracking-budget.json", "towns-tracking-step": "tracking-step.json",
@@ -440,7 +455,9 @@ def pages() -> dict[Path, dict[str, str]]:
                                             **tables_speed(_load(DATA / "filter-step.json"),
                                                            _load(DATA / "filter-step-alone.json"),
                                                            _load(DATA / "guidance.json")),
-                                            **tables_memory(_load(DATA / "campaign-memory.json"))},
+                                            **tables_memory(_load(DATA / "campaign-memory.json")),
+                                            **tables_angles(_load(DATA / "line-of-sight-arctan2.json"),
+                                                            _load(DATA / "line-of-sight-polynomial.json"))},
             DOCS / "results" / "papaioannou2023.md": {**tables_findings(_load(DATA / "findings.json")),
                                                       **tables_pcrlb(_load(DATA / "pcrlb.json"))},
             DOCS / "guidance-cities.md": {**tables_cities(cities, _load(DATA / "gcs-bound.json")),
