@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from uavsim.belief import traces
 from uavsim.belief.traces import bearing_traces
+from uavsim.estimators import angles
 from uavsim.sensing import BearingModel, bearing, wrap_angle
 from uavsim.uav import decide, move_offsets
 
@@ -34,27 +34,8 @@ def cloud(rng, centres, n, spread):
 
 @pytest.fixture(params=[False, True], ids=["polynomial", "numpy-arctan2"])
 def angle_path(request, monkeypatch):
-    """Both ways :func:`squared_angle` takes the residuals, whichever this CPU uses."""
-    monkeypatch.setattr(traces, "_ARCTAN2_VECTORISED", request.param)
-
-
-def test_squared_angle_matches_arctan2_round_the_circle(monkeypatch):
-    """The polynomial's angles against float64 arctan2 in every octant, on the axes, at
-    0 / 0 and over 12 decades of magnitude: within 4e-7 rad (1.6e-7 the fit, plus
-    float32's rounding of pi - a, 1.2e-7), and within 5e-7 relative below 0.1 rad (the
-    residuals the likelihood sees are a few sigma)."""
-    monkeypatch.setattr(traces, "_ARCTAN2_VECTORISED", False)
-    rng = np.random.default_rng(11)
-    angle = np.r_[rng.uniform(-np.pi, np.pi, 20000), np.arange(-4, 5) * np.pi / 4, 10.0 ** -np.arange(1, 8)]
-    scale = 10.0 ** rng.uniform(-6, 6, angle.size)
-    y, x = (np.sin(angle) * scale).astype(np.float32), (np.cos(angle) * scale).astype(np.float32)
-    y, x = np.r_[y, 0, 0, 5], np.r_[x, 0, 3, 0]
-    want = np.abs(np.arctan2(y.astype(float), x.astype(float)))
-    got = np.sqrt(traces.squared_angle(y.copy(), x.copy()).astype(float))
-    assert np.abs(got - want).max() < 4e-7
-    small = (want > 0) & (want < 0.1)
-    assert (np.abs(got - want)[small] / want[small]).max() < 5e-7
-    assert got[-3] == 0.0 and got[-2] == 0.0
+    """Both ways the residual angles are taken (:mod:`uavsim.estimators.angles`), whichever this CPU uses."""
+    monkeypatch.setattr(angles, "ARCTAN2_VECTORISED", request.param)
 
 
 def test_traces_and_choice_match_the_loop(angle_path):

@@ -11,27 +11,24 @@ UAV's rule that goes to the least summed trace, Eq. (13), is
 
 Vectorised over candidates x targets x particles.  The residual bearing is computed
 exactly as ``atan2(d_mu x d_i, d_mu . d_i)`` (the signed angle between the directions to
-the mean and to the particle; no wrap needed), squared by :func:`squared_angle` (a
-polynomial where numpy's float32 arctan2 is not vectorised).  The bulk arithmetic runs in float32 on
-particles centred at their predicted mean, so the moment sums stay well conditioned:
-the traces agree with a float64 loop to ~1e-5 relative (see the tests).
+the mean and to the particle; no wrap needed) and squared, by
+:func:`uavsim.estimators.angles.atan2_into` (a polynomial where numpy's float32 arctan2 is not
+vectorised).  The bulk arithmetic runs in float32 on particles centred at their predicted
+mean, so the moment sums stay well conditioned: the traces agree with a float64 loop to
+~1e-5 relative (see the tests).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..estimators.angles import atan2_into
 from ..sensing import BearingModel, MeasurementModel
 
 BLOCK_ELEMENTS = 1 << 16  # candidate x target x particle entries per block: 256 kB float32 arrays stay in L2
 DECISION_PARTICLES = 1000  # per target: the systematic subsample of :func:`model_traces`
 SIGHT_CELLS = 32  # per target: the cells of :func:`sight_cells`, one line of sight tested to each
 SIGHT_ACROSS = 4  # cells across a cloud's principal axis, in each of its SIGHT_CELLS / 4 strips along it
-# atan(t) = t sum_k c_k t^(2k) on [0, 1]: least squares in relative error on 40 000 Chebyshev
-# nodes with c_0 = 1 (exact for small angles); in float32 within 1.6e-7 rad (tests/test_traces.py)
-ATAN_COEFFS = np.array([1.0, -0.33332406995407804, 0.19974286379233538, -0.14040931055609907,
-                        0.09965593668801892, -0.06014166411412691, 0.02467854849336771,
-                        -0.00480422211511922], np.float32)
 
 
 def pseudo_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray,
@@ -288,7 +285,7 @@ def _block_sums(cross: np.ndarray, dot: np.ndarray, feats: np.ndarray, sigma: fl
     Returns the sums ``(M, C, 8)`` weighted by ``exp(-(r^2 - r_min^2) / 2 sigma^2)`` (times
     the detection ``detect (M, C, g)`` of the block's g cells of ``B / g`` particles if
     given) and ``r_min^2 (M, C)``, the block's least squared residual."""
-    expo = squared_angle(cross, dot)  # (M, C, B): (l(x_i, s) - l(mu, s))^2
+    expo = atan2_into(cross, dot, squared=True)  # (M, C, B): (l(x_i, s) - l(mu, s))^2
     low = expo.min(axis=2)
     expo -= low[..., None]  # the best-aligned particle gets exp(0): no underflow
     expo *= np.float32(-0.5 / sigma**2)
@@ -300,51 +297,6 @@ def _block_sums(cross: np.ndarray, dot: np.ndarray, feats: np.ndarray, sigma: fl
     cells = lik.reshape(detect.shape + (-1,))  # a view: (M, C, g, B / g)
     cells *= detect[..., None]
     return lik @ feats.transpose(0, 2, 1), low
-
-
-def squared_angle(y: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """``atan2(y, x)^2`` of float32 arrays, in ``y``'s buffer (``x`` is overwritten).
-
-    numpy's float32 ``arctan2`` is vectorised only where it has a SIMD loop for this CPU
-    (AVX-512); elsewhere it is the scalar C library, about 25 ns an element, and the
-    decision's residuals are most of its time.  There the angle is taken from the odd
-    polynomial :data:`ATAN_COEFFS` of ``t = min(|x|, |y|) / max(|x|, |y|)`` in [0, 1],
-    reflected to ``pi / 2 - a`` where ``|y| > |x|`` and to ``pi - a`` where ``x < 0``, with
-    float32 passes numpy does vectorise: within 4e-7 rad of arctan2 (the fit's 1.6e-7 and
-    float32's rounding of ``pi - a``), and 2.3e-7 relative for small angles, as numpy's own
-    float32 loop."""
-    if _ARCTAN2_VECTORISED:
-        return np.square(np.arctan2(y, x, out=y), out=y)
-    behind, steep = x < 0, np.abs(x, out=x) < np.abs(y, out=y)
-    big = np.maximum(x, y)
-    big += np.float32(1e-30)  # 0 / 0 -> 0 (and a pass faster than a maximum with a scalar)
-    t = np.divide(np.minimum(x, y, out=y), big, out=y)  # in [0, 1]
-    z = np.multiply(t, t, out=big)
-    acc = np.multiply(z, ATAN_COEFFS[-1], out=x)
-    for c in ATAN_COEFFS[-2:0:-1]:
-        acc += c
-        acc *= z
-    acc += ATAN_COEFFS[0]
-    a = np.multiply(acc, t, out=t)  # atan(t), in [0, pi / 4]
-    for flag, turn in ((steep, np.float32(np.pi / 2)), (behind, np.float32(np.pi))):
-        np.multiply(a, np.float32(-2.0), out=z)  # a + flag (turn - 2 a): no masked passes (slow)
-        z += turn
-        z *= flag
-        a += z
-    return np.square(a, out=a)
-
-
-def _numpy_arctan2_vectorised() -> bool:
-    """Whether numpy runs a SIMD loop for float32 ``arctan2`` on this CPU (its own
-    introspection; an older numpy without it is taken as not)."""
-    try:
-        info = np.lib.introspect.opt_func_info(func_name="arctan2", signature="float32")
-        return not info["arctan2"]["fff"]["current"].startswith("baseline")
-    except (AttributeError, KeyError, TypeError):
-        return False
-
-
-_ARCTAN2_VECTORISED = _numpy_arctan2_vectorised()
 
 
 def gaussian_traces(candidates: np.ndarray, means: np.ndarray, covs: np.ndarray, sensor: MeasurementModel,

@@ -36,6 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .angles import atan2_into
+
 
 def polynomial_basis(times, order: int = 1, t_ref: float | None = None) -> np.ndarray:
     """``Phi (K, 2, 2 (order + 1))`` of a polynomial track in ``tau = t - t_ref``:
@@ -209,9 +211,9 @@ class Evaluator:
             np.matmul(aug, design[:, i], out=a)
         return out
 
-    def _lam(self, e: np.ndarray, rs: slice) -> np.ndarray:
-        np.square(e, out=e)
-        return 0.5 * (e @ self.data.weights[rs, :, None])[..., 0]
+    def _lam(self, e2: np.ndarray, rs: slice) -> np.ndarray:
+        """``lam`` from the squared residuals ``e2 (r, p, K)``."""
+        return 0.5 * (e2 @ self.data.weights[rs, :, None])[..., 0]
 
     def nll(self, theta) -> np.ndarray:
         """``lam (R, P)``, [Oliva2021, Eq. (10)]."""
@@ -219,7 +221,7 @@ class Evaluator:
         out = np.empty(theta.shape[:2])
         for rs, ps in self._blocks(*theta.shape[:2]):
             s, c = self._linear(theta, rs, ps, "s c")
-            out[rs, ps] = self._lam(np.arctan2(s, c, out=s), rs)
+            out[rs, ps] = self._lam(atan2_into(s, c, squared=True), rs)
         return out
 
     def derivatives(self, theta, hessian: bool = False):
@@ -237,7 +239,8 @@ class Evaluator:
         """One block: ``lam`` and the gradient; adds the matrix into ``mat`` (a view)."""
         s, c, dx, dy = self._linear(theta, rs, ps, "s c dx dy")
         e, q = self._arrays(s.shape, "e q")
-        np.arctan2(s, c, out=e)
+        np.copyto(e, s)
+        atan2_into(e, c)  # c is only scratch from here on
         np.multiply(dx, dx, out=q)
         q += np.multiply(dy, dy, out=s)
         with np.errstate(divide="ignore", invalid="ignore"):  # r = 0 (on the observer): non-finite derivatives
@@ -255,7 +258,7 @@ class Evaluator:
             coefs = [coefs[0] - two, coefs[1] + e * (coefs[0] - coefs[2]), coefs[2] + two]
         for coef, basis, cols in zip(coefs, data.fisher_basis, data.fisher_cols):
             mat[..., cols] += coef @ basis[rs]
-        return self._lam(e, rs), grad
+        return self._lam(np.square(e, out=e), rs), grad
 
 
 def residuals(data: BearingData, theta) -> np.ndarray:
