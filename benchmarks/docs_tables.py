@@ -314,16 +314,33 @@ def tables_memory(data: dict | None) -> dict[str, str]:
                                rows) + "\n\n" + provenance(data)}
 
 
-def tables_angles(before: dict | None, after: dict | None) -> dict[str, str]:
-    """The decision on a CPU whose numpy arctan2 is scalar, before and after the residuals'
-    polynomial (``line_of_sight.py`` at two commits, the same flights)."""
+def tables_angles(before: dict | None, after: dict | None, batch_before: dict | None = None,
+                  batch_after: dict | None = None) -> dict[str, str]:
+    """On a CPU whose numpy arctan2 is scalar, before and after the residuals' polynomial:
+    the decision (``line_of_sight.py`` at two commits, the same flights) and the batch
+    estimators (``batch_tma.py``)."""
+    out = {}
+    if batch_before is not None and batch_after is not None:
+        kernel = [next(k for k in d["kernels"] if k["dtype"] == "float32" and k["blocks"] == "cache-sized blocks")
+                  for d in (batch_before, batch_after)]
+        run = [next(r for r in d["per_run"] if r["scans"] == 600 and r["sigma_deg"] == 0.5)["seconds"]
+               for d in (batch_before, batch_after)]
+        rows = [[f"float32 kernel, {label}, ns per particle-scan", *_versus(kernel[0][key], kernel[1][key])]
+                for key, label in (("lam_ns", "lam"), ("lam_grad_fisher_ns", "lam, gradient and Fisher"))]
+        rows += [[f"{name.upper()}, CPU s per run (K = 600, 0.5 deg)", *_versus(run[0][name], run[1][name], "{:.4f}")]
+                 for name in ("nr", "pso", "nrpso")]
+        rows.append(["the Oh2021 study's grid, CPU min", *_versus(batch_before["grid_cpu_seconds"] / 60,
+                                                          batch_after["grid_cpu_seconds"] / 60, "{:.1f}")])
+        out["speed-angles-batch"] = (md(["figure", "arctan2", "polynomial", "speed-up"], rows)
+                                     + "\n\nBefore: " + provenance(batch_before) + "\n\nAfter: "
+                                     + provenance(batch_after))
     if before is None or after is None:
-        return {}
+        return out
     rows = [[a["world"], a["step"], a["candidates"], *_versus(b["decide_ms_off"], a["decide_ms_off"], "{:.1f}"),
              *_versus(b["decide_ms_on"], a["decide_ms_on"], "{:.1f}"), f"{b['decide_ratio']:.2f}",
              f"{a['decide_ratio']:.2f}"]
             for b, a in zip(before["figures"]["rows"], after["figures"]["rows"], strict=True)]
-    return {"speed-angles": md(["world", "after steps", "moves", "decision ms, no line of sight: arctan2",
+    return out | {"speed-angles": md(["world", "after steps", "moves", "decision ms, no line of sight: arctan2",
                                 "polynomial", "speed-up", "with line of sight: arctan2", "polynomial", "speed-up",
                                 "line of sight / none: arctan2", "polynomial"], rows)
             + "\n\nBefore: " + provenance(before) + "\n\nAfter: " + provenance(after)}
@@ -457,7 +474,9 @@ def pages() -> dict[Path, dict[str, str]]:
                                                            _load(DATA / "guidance.json")),
                                             **tables_memory(_load(DATA / "campaign-memory.json")),
                                             **tables_angles(_load(DATA / "line-of-sight-arctan2.json"),
-                                                            _load(DATA / "line-of-sight-polynomial.json"))},
+                                                            _load(DATA / "line-of-sight-polynomial.json"),
+                                                            _load(DATA / "oh2021-speed-arctan2.json"),
+                                                            _load(DATA / "oh2021-speed-polynomial.json"))},
             DOCS / "results" / "papaioannou2023.md": {**tables_findings(_load(DATA / "findings.json")),
                                                       **tables_pcrlb(_load(DATA / "pcrlb.json"))},
             DOCS / "guidance-cities.md": {**tables_cities(cities, _load(DATA / "gcs-bound.json")),
