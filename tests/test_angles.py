@@ -1,5 +1,5 @@
-"""atan2 into a buffer (uavsim/estimators/angles.py): the polynomial numpy's scalar arctan2 is replaced by,
-against float64 arctan2."""
+"""atan2 into a buffer (uavsim/estimators/angles.py): the float32 polynomial that stands in
+for numpy's scalar arctan2, against float64 arctan2."""
 
 import numpy as np
 import pytest
@@ -25,12 +25,12 @@ def circle():
 
 
 def test_signed_angles_match_arctan2_round_the_circle(polynomial):
-    """Within 4e-7 rad (1.6e-7 the fit, plus float32's rounding of pi - a, 1.2e-7; ±pi
+    """Within 4e-7 rad (1.6e-7 the fit, plus float32's rounding of pi - a, 1.2e-7; +-pi
     counted equal), within 5e-7 relative below 0.1 rad (the residuals the likelihoods see
     are a few sigma), with arctan2's sign, and 0 at 0 / 0."""
     y, x, want = circle()
     got = angles.atan2_into(y.copy(), x.copy()).astype(float)
-    err = np.abs(np.angle(np.exp(1j * (got - want))))  # ±pi are one angle
+    err = np.abs(np.angle(np.exp(1j * (got - want))))  # +-pi are one angle
     assert err.max() < 4e-7
     small = (np.abs(want) > 0) & (np.abs(want) < 0.1)
     assert (err[small] / np.abs(want[small])).max() < 5e-7
