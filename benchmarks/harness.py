@@ -24,7 +24,10 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from multiprocessing import get_context
 from pathlib import Path
 
+import numpy as np
 from threadpoolctl import threadpool_info, threadpool_limits
+
+from uavsim.estimators.angles import ARCTAN2_VECTORISED
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -47,14 +50,16 @@ def _cpu_model() -> str:
 
 
 def machine(blas_threads: int | None = None) -> dict:
-    """The run's provenance: commit, tree state, CPU, cores, BLAS threads, load, time."""
+    """The run's provenance: commit, tree state, CPU, cores, BLAS threads, numpy and whether
+    its float32 arctan2 is vectorised here (:mod:`uavsim.estimators.angles`), load, time."""
     blas = [{k: p.get(k) for k in ("internal_api", "num_threads", "version")} for p in threadpool_info()
             if p.get("user_api") == "blas"]
     return {"commit": _git("rev-parse", "HEAD"), "dirty": bool(_git("status", "--porcelain", "--untracked-files=no")),
             "cpu": _cpu_model(), "cores": os.cpu_count(), "blas": blas,
             "trial_blas_threads": 1,  # every trial runs single-threaded (uavsim.campaign.one_blas_thread)
             "blas_threads_limit": blas_threads,  # a benchmark's --blas-threads, when it ran through run()
-            "python": platform.python_version(), "load_average": list(os.getloadavg()),
+            "python": platform.python_version(), "numpy": np.__version__, "arctan2_simd": ARCTAN2_VECTORISED,
+            "load_average": list(os.getloadavg()),
             "started": time.strftime("%Y-%m-%dT%H:%M:%S%z")}
 
 
