@@ -238,11 +238,10 @@ class Evaluator:
     def _derivatives(self, theta, rs, ps, hessian, mat):
         """One block: ``lam`` and the gradient; adds the matrix into ``mat`` (a view)."""
         s, c, dx, dy = self._linear(theta, rs, ps, "s c dx dy")
-        e, q = self._arrays(s.shape, "e q")
-        np.copyto(e, s)
-        atan2_into(e, c)  # c is only scratch from here on
+        spare, q = self._arrays(s.shape, "spare q")
+        e = atan2_into(s, c)  # in s's buffer; c is only scratch from here on
         np.multiply(dx, dx, out=q)
-        q += np.multiply(dy, dy, out=s)
+        q += np.multiply(dy, dy, out=spare)
         with np.errstate(divide="ignore", invalid="ignore"):  # r = 0 (on the observer): non-finite derivatives
             dy /= q  # dy / r^2 = -rho_x
             dx /= q  # dx / r^2 = rho_y
@@ -252,7 +251,7 @@ class Evaluator:
         grad = np.multiply(e, dy, out=q) @ gb[:, 0]
         grad += np.multiply(e, dx, out=q) @ gb[:, 1]
         # F = sum (rho_x^2 Phi_x Phi_x^T + rho_x rho_y (Phi_x Phi_y^T + Phi_y Phi_x^T) + rho_y^2 ...) / sigma^2
-        coefs = [np.multiply(dy, dy, out=q), np.multiply(dy, dx, out=s), np.multiply(dx, dx, out=c)]
+        coefs = [np.multiply(dy, dy, out=q), np.multiply(dy, dx, out=spare), np.multiply(dx, dx, out=c)]
         if hessian:  # - sum e d2h / sigma^2, d2h in (dx, dy) (module docstring); the xy basis has a minus
             two = 2 * e * dx * dy
             coefs = [coefs[0] - two, coefs[1] + e * (coefs[0] - coefs[2]), coefs[2] + two]
