@@ -20,7 +20,9 @@ reference seconds instead of the mission's 1.0, for speed (``weighted-budget-0.1
 ``no-loss-detection``: the optimized policy with the mission's filter less one of its
 additions (one process noise Q for every particle; no track-loss detection); ``link``: the
 line-of-sight run with P1's link term (``guidance.link_applied_force``, the truth's plans
-and the filter's re-plans alike).  Every variant runs the
+and the filter's re-plans alike); ``no-keep-out``: the mission's filter with its particles
+free to cross obstacles and its prior unrestricted (``filter.keep_out = false``; its
+baseline likewise, ``OUT/baseline-False``).  Every variant runs the
 same trials (trial k seeded from ``SeedSequence(seed).spawn(trials)[k]``) beside the
 no-information baseline of those trials
 (:func:`uavsim.campaign.with_baseline`), and reports what a tracking result needs: RMSE over
@@ -63,8 +65,11 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "weighted-budget-0.1": ("weighted", {"guidance.replan_budget_s": 0.1}),  # the weighted UAV, fast steps
     # P1 with the step from the applied force weighed (truth and filter), line of sight on
     "link": ("optimized", {"guidance.link_applied_force": True, "sensor.line_of_sight": True}),
+    "no-keep-out": ("optimized", {"filter.keep_out": False}),  # particles may cross obstacles, an unrestricted prior
 }
-SHARED = ("truth", "guidance.")  # overrides the baseline takes too: they change the truths, not the filter
+# overrides the baseline takes too: they change the truths (truth, guidance) or what the filter
+# knows without a measurement (keep_out)
+SHARED = ("truth", "guidance.", "filter.keep_out")
 
 
 def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, workers: int, resume: bool) -> dict:

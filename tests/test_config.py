@@ -115,6 +115,9 @@ BAD_MISSIONS = [
     (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "plkf"')
      .replace("plan_clusters = 1", "plan_clusters = 2")
      .replace("clutter_rate = 0.5", "clutter_rate = 0.0"), "filter.plan_clusters", "needs particles to split"),
+    (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "plkf"')
+     .replace("keep_out = false", "keep_out = true")
+     .replace("clutter_rate = 0.5", "clutter_rate = 0.0"), "filter.keep_out", "needs a particle filter"),
     (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "iv-plkf"')
      .replace("clutter_rate = 0.0\n\n#", "clutter_rate = 0.5\n\n#"),
      "planner.fixed_sensors.clutter_rate", "needs clutter-free sensors"),

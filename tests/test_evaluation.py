@@ -274,6 +274,9 @@ def test_new_settings_are_in_the_fingerprint_unless_they_keep_the_old_behaviour(
     # P1 without the link term likewise; with it, a new setting
     assert fingerprint(small(**old, **{"guidance.link_applied_force": False}), "optimized") == PAPER_SMALL_FINGERPRINT
     assert fingerprint(small(**old, **{"guidance.link_applied_force": True}), "optimized") != PAPER_SMALL_FINGERPRINT
+    # particles kept out of the obstacles: a new setting; the paper's filter (off) as before
+    assert fingerprint(small(**old, **{"filter.keep_out": False}), "optimized") == PAPER_SMALL_FINGERPRINT
+    assert fingerprint(small(**old, **{"filter.keep_out": True}), "optimized") != PAPER_SMALL_FINGERPRINT
 
 
 def test_baseline_does_not_depend_on_sensor_or_planner_settings(tmp_path, capsys):

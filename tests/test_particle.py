@@ -11,6 +11,7 @@ from uavsim.belief.particle import (
     ParticleBelief,
     ParticleFilter,
     halves,
+    restricted_draws,
     systematic_indices,
     weighted_moments,
 )
@@ -374,3 +375,57 @@ def test_each_particle_keeps_the_force_it_moved_by_through_resampling_and_reseed
     b.reseed(np.array([0]), np.zeros((1, n // 2, 6)))
     kept = b.pf.applied[0, : n - n // 2]
     np.testing.assert_allclose(b.pf.applied[0, n - n // 2:], np.broadcast_to(kept.mean(axis=0), (n // 2, 2)))
+
+
+def test_a_restricted_prior_is_the_gaussian_truncated():
+    """:func:`restricted_draws`: target 0 ~ N(0, 4 I) kept where x >= 1 (a share 1 - Phi(0.5) =
+    0.31 of its draws), target 1 ~ N(0, I) where y <= 0.  Every draw is kept by the test,
+    and the kept x has the truncated normal's mean ``2 phi(0.5) / (1 - Phi(0.5)) = 2.2827``
+    (standard error 1.036 / sqrt(n) = 0.0073; tolerance 4 of them); the coordinates the
+    test does not see keep mean 0.  Without a test the draws are the plain prior's."""
+    n, rng = 20000, np.random.default_rng(5)
+    covs = np.stack([4 * np.eye(6), np.eye(6)])
+
+    def clear(x):
+        return np.stack([x[0, :, 0] >= 1.0, x[1, :, 1] <= 0.0])
+
+    x, unrestricted = restricted_draws(rng, np.zeros((2, 6)), covs, n, clear)
+    assert x.shape == (2, n, 6) and unrestricted.tolist() == [0, 0] and clear(x).all()
+    assert abs(x[0, :, 0].mean() - 2.2827) < 4 * 0.0073
+    assert abs(x[1, :, 1].mean() + math.sqrt(2 / math.pi)) < 4 * 0.60 / math.sqrt(n)
+    assert abs(x[0, :, 1].mean()) < 4 * 2 / math.sqrt(n) and abs(x[1, :, 0].mean()) < 4 / math.sqrt(n)
+    plain, _ = restricted_draws(np.random.default_rng(6), np.zeros((2, 6)), covs, 50)
+    np.testing.assert_array_equal(plain, ParticleFilter.from_priors(np.random.default_rng(6), np.zeros((2, 6)),
+                                                                    covs, 50).particles)
+
+
+def test_a_prior_that_cannot_be_restricted_is_reported():
+    belief = ParticleBelief(np.random.default_rng(1), np.zeros((2, 6)), np.tile(np.eye(6), (2, 1, 1)), 100, 0.5,
+                            0.0, ("T1", "T2"), clear=lambda x: np.stack([np.zeros(x.shape[1], bool),
+                                                                         np.ones(x.shape[1], bool)]))
+    assert belief.pf.unrestricted.tolist() == [100, 0]
+    notes = belief.drain_notes()
+    assert len(notes) == 1 and notes[0].startswith("T1: 100 of 100 prior particles not restricted")
+    assert belief.drain_notes() == []
+
+
+@pytest.mark.parametrize("threshold", [0.3, 0.9])
+def test_keep_out_weighs_the_particles_inside_zero(threshold):
+    """Target 0's particles with x > 0 (about half) are inside: they weigh zero and the rest
+    keep their ratios; below the ESS threshold (0.9 here) the cloud is resampled from the
+    outside ones.  Target 1's particles are all inside: its weights stay, reported."""
+    rng = np.random.default_rng(2)
+    belief = ParticleBelief(rng, np.zeros((2, 6)), np.tile(np.eye(6), (2, 1, 1)), 1000, threshold, 0.0,
+                            ("T1", "T2"))
+    w0 = belief.pf.weights.copy()
+    events = belief.keep_out(lambda p: np.stack([p[0, :, 0] > 0, np.ones(p.shape[1], bool)]))
+    assert events[0] == "T2: every particle inside an obstacle after the prediction; weights kept"
+    np.testing.assert_array_equal(belief.pf.weights[1], w0[1])
+    if threshold == 0.3:
+        out = belief.pf.particles[0, :, 0] <= 0
+        assert len(events) == 1 and (belief.pf.weights[0][~out] == 0).all()
+        np.testing.assert_allclose(belief.pf.weights[0][out], 1 / out.sum())
+    else:
+        assert events[1] == "resampled T1 (particles inside obstacles)"
+        assert (belief.pf.particles[0, :, 0] <= 0).all()
+        np.testing.assert_allclose(belief.pf.weights[0], 1e-3)

@@ -109,7 +109,7 @@ def test_one_default_per_setting(tmp_path):
             assert same(getattr(cls(), name), want) == [], (section, name)
             assert same(getattr(obj, name), want) == [], (section, name)
             assert same(getattr(read, name), want) == [], (section, name)
-    assert minimal.filter.plan_clusters == 2 and minimal.planner.name == "optimized"
+    assert minimal.filter.plan_clusters == 2 and minimal.filter.keep_out and minimal.planner.name == "optimized"
     assert minimal.steps == 50 and minimal.trials == 10 and minimal.seed == 0 and minimal.truth == "planned"
     assert [s.key for s in dict(sections())["[[targets]]"]] == ["name", "position_m", "velocity_mps", "cov0_si",
                                                                 "goal"]

@@ -226,6 +226,22 @@ def _random_prisms(seed: int) -> World:
     return World.of_prisms("w", np.zeros(3), np.full(3, 200.0), footprints, z, [f"o{i}" for i in range(12)], ())
 
 
+def test_in_obstacle_tests_the_near_obstacles_as_it_would_every_one():
+    """``in_obstacle`` tests only the obstacles whose boxes meet the points' box; its verdict
+    is every obstacle's half-space test's, for a cloud of ground points and for points on
+    the obstacles' faces and corners (closed obstacles) and just beyond them."""
+    world = _random_prisms(3)
+    rng = np.random.default_rng(4)
+    cloud = np.c_[rng.normal(100.0, 20.0, size=(5000, 2)), np.zeros(5000)]
+    corners = world.footprints.vertices[world.footprints.valid]
+    faces = np.c_[corners, np.zeros(len(corners))]
+    beyond = faces + np.r_[1e-9, 1e-9, 0.0] * np.sign(faces - [100.0, 100.0, 0.0])
+    for pts in (cloud, cloud[:40], faces, beyond, world.obstacle_hi, world.obstacle_lo + [0.0, 0.0, -1e-9]):
+        every = inside_polytopes(pts, world.normals, world.offsets).any(axis=-1)
+        np.testing.assert_array_equal(world.in_obstacle(pts), every)
+    assert world.in_obstacle(faces).any() and not world.in_obstacle(np.empty((0, 3))).size
+
+
 
 def test_fans_under_the_moves_see_behind_the_point():
     """A point under the grid of moves near its north edge, and a 50 m block just north-east

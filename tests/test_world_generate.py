@@ -45,10 +45,11 @@ def test_generated_missions_carry_the_paper_numbers(suite):
         np.testing.assert_array_equal(m.dynamics.q, paper.dynamics.q)
         # the filter's differences: each half of a particle cloud moves by its own plan (the
         # paper's one plan from the mean lost targets on generated worlds), lost tracks are
-        # detected and re-seeded, and particles carry one of two process-noise levels
-        # (docs/methods/filter.md)
+        # detected and re-seeded, particles carry one of two process-noise levels, and they
+        # keep out of the obstacles (docs/methods/filter.md)
         assert m.guidance == paper.guidance
-        assert m.filter == replace(paper.filter, plan_clusters=2, loss_nats=10.0, noise_scales=(0.03, 0.3))
+        assert m.filter == replace(paper.filter, plan_clusters=2, loss_nats=10.0, noise_scales=(0.03, 0.3),
+                                   keep_out=True)
         assert (m.uav.step, m.uav.n_theta, m.uav.n_r, m.steps) == (paper.uav.step, paper.uav.n_theta,
                                                                     paper.uav.n_r, paper.steps)
         for t in m.targets:

@@ -347,6 +347,8 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
         del data["filter"]["loss_nats"], data["filter"]["reseed_share"]
     if len(data["filter"]["noise_scales"]) == 1 and data["filter"]["noise_scales"][0] == 1.0:  # one Q: as before
         del data["filter"]["noise_scales"], data["filter"]["scale_switch"]
+    if not data["filter"]["keep_out"]:  # particles that may cross obstacles: as before the setting existed
+        del data["filter"]["keep_out"]
     if data["guidance"]["terminal"] == "soft":  # likewise
         del data["guidance"]["terminal"]
     if not data["guidance"]["link"]:  # P1 without the link term: as before

@@ -11,7 +11,9 @@ Each step t -> t+1:
    ``[guidance] link_applied_force`` each re-plan also weighs the step from the force
    its particles moved by last (each particle keeps its own; a half's re-plan takes its
    weighted mean, :meth:`.belief.Belief.applied`);
-3. **belief predict** (Eq. 9a) with each plan's first control.  With ``[filter]
+3. **belief predict** (Eq. 9a) with each plan's first control; with ``[filter] keep_out``
+   the particles it carries into an obstacle then weigh zero (the prior was restricted to
+   the true starts' test, :func:`.truth.clear_starts`).  With ``[filter]
    plan_clusters = 2`` each particle cloud is split in two (:func:`.belief.particle.halves`)
    and each half moves by the first control of a plan from its own mean and covariance
    (warm-started from the previous step's half plan nearest it; no plan is made from the
@@ -46,7 +48,7 @@ from .belief import make_belief
 from .guidance import Guidance, Plan
 from .mission import Mission
 from .sensing import Scan
-from .truth import Truth
+from .truth import Truth, clear_starts
 from .uav import make_policy
 from .world.routes import GoalField
 
@@ -106,7 +108,7 @@ class Simulation:
         self.truth = Truth(m, self.guidance, start_rng, truth_rng)
         self.belief = make_belief(m.filter, filter_rng, np.array([t.mean0 for t in m.targets]),
                                   np.array([t.cov0 for t in m.targets]), m.guidance.speed_max,
-                                  tuple(t.name for t in m.targets))
+                                  tuple(t.name for t in m.targets), self._clear)
         self.t, self._prepared = 0, False
         self.plans: list[Plan | None] = [None] * len(m.targets)
         self.half_plans: list[list[Plan]] = [[] for _ in m.targets]  # per target: this step's two half plans, or none
@@ -135,6 +137,9 @@ class Simulation:
         sec["guidance"] = time.perf_counter() - t1
         t2 = time.perf_counter()
         self.belief.predict(m.dynamics, controls, split)
+        if m.filter.keep_out:
+            events += self.belief.keep_out(self._inside)
+        events += self.belief.drain_notes()
         sec["filter"] = time.perf_counter() - t2
         self._prepared, self._sec, self._events = True, sec, events
 
@@ -170,6 +175,17 @@ class Simulation:
         if self.oracle or self.t == 0:
             return []
         return [p for plan, halves in zip(self.plans, self.half_plans) for p in (halves or [plan])]
+
+    def _clear(self, states: np.ndarray) -> np.ndarray:
+        """``(M, K)`` bool: which of the states ``(M, K, 6)`` a true target may start from
+        (:func:`.truth.clear_starts`)."""
+        return clear_starts(self.m, self.guidance.geom.polys, states.transpose(1, 0, 2)).T
+
+    def _inside(self, positions: np.ndarray) -> np.ndarray:
+        """``(M, N)`` bool: which of the positions ``(M, N, 3)`` (a cloud per target) lie in
+        an obstacle; a cloud at a time, so each meets only the obstacles near it."""
+        w = self.m.world
+        return np.stack([w.in_obstacle(p) for p in w.on_ground(positions)])
 
     def _recover(self, scans, observers, sensor) -> list[str]:
         """Re-seed the tracks the belief declares lost, each from the routes to its goal."""

@@ -43,8 +43,9 @@ class FilterConfig:
     ``loss_nats``, ``reseed_share``: track-loss detection (:class:`.particle.ParticleBelief`)
     and recovery (:mod:`.recovery`); ``noise_scales``, ``scale_switch``: process-noise
     levels the particles jump between (:meth:`.particle.ParticleFilter.predict`); particle
-    filters only.  The paper's missions set ``loss_nats = 0`` and ``noise_scales = [1.0]``,
-    its filter as published."""
+    filters only.  ``keep_out``: the targets keep out of the obstacles
+    (:meth:`.particle.ParticleBelief.keep_out`).  The paper's missions set ``loss_nats = 0``,
+    ``noise_scales = [1.0]`` and ``keep_out = false``, its filter as published."""
 
     kind: str = setting("kind", "particle", choices=KINDS,
                         doc="the estimator: particle filters ([Papaioannou2023, Sec. V-A]) or a pseudo-linear "
@@ -68,6 +69,11 @@ class FilterConfig:
                                   doc="per step, the chance a particle redraws its process-noise multiplier")
     plan_clusters: int = setting("plan_clusters", kind="integer", lo=1, hi=2, derived="2 for kind = particle, else 1",
                                  doc="plans per target: 1 from the mean, 2 one per half of the particle cloud")
+    keep_out: bool = setting("keep_out", kind="boolean", derived="true for kind = particle, else false",
+                             doc="the filter knows the targets keep out of the obstacles, as the true ones do: its "
+                                 "prior is N(mu_0, Sigma_0) restricted to the starts a true target may take, and a "
+                                 "particle a prediction carries into an obstacle weighs zero (particle filters only; "
+                                 "false: the prior and prediction of [Papaioannou2023, Sec. V-A])")
 
     def __post_init__(self):
         # a tuple, so that settings compare (an array field would make == ambiguous)
@@ -77,6 +83,10 @@ class FilterConfig:
         if self.plan_clusters > 1 and self.kind != "particle":
             raise SettingError("plan_clusters", f"needs particles to split (kind = \"particle\"), got kind = "
                                                 f"\"{self.kind}\"")
+        if self.keep_out is None:
+            object.__setattr__(self, "keep_out", self.kind == "particle")
+        if self.keep_out and self.kind != "particle":
+            raise SettingError("keep_out", f"needs a particle filter (kind = \"particle\"), got kind = \"{self.kind}\"")
 
 
 class Belief(Protocol):
@@ -119,6 +129,14 @@ class Belief(Protocol):
                 share: float) -> list[str]:
         """Re-seed the :attr:`lost` tracks from the scans (:mod:`.recovery`); track-loss events."""
 
+    def drain_notes(self) -> list[str]:
+        """Events noted outside a step's update since the last call (a particle prior that
+        could not be restricted to clear starts)."""
+
+    def keep_out(self, inside) -> list[str]:
+        """The particles ``inside(positions (M, N, 3))`` marks (``(M, N)`` bool, in an
+        obstacle) weigh zero (particle beliefs; :meth:`.particle.ParticleBelief.keep_out`)."""
+
     def credible_level(self, truth: np.ndarray, mean: np.ndarray, cov: np.ndarray) -> np.ndarray:
         """``(M,)`` the belief's probability of a position nearer its mean than ``truth (M, 6)``
         (:func:`uavsim.metrics.credible_level`); ``mean (M, 6)``, ``cov (M, 6, 6)``: its moments
@@ -126,9 +144,11 @@ class Belief(Protocol):
 
 
 def make_belief(cfg: FilterConfig, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray,
-                speed_max: float, names: tuple[str, ...]) -> Belief:
-    """The belief ``cfg.kind`` names, starting from the priors ``N(means, covs)``."""
+                speed_max: float, names: tuple[str, ...], clear=None) -> Belief:
+    """The belief ``cfg.kind`` names, starting from the priors ``N(means, covs)``; with
+    ``cfg.keep_out`` restricted to the states ``clear`` keeps (a function of ``(M, K, 6)``
+    states giving ``(M, K)`` bool: :func:`.particle.restricted_draws`)."""
     if cfg.kind == "particle":
         return ParticleBelief(rng, means, covs, cfg.particles, cfg.resample_threshold, cfg.roughening, names,
-                              cfg.loss_nats, cfg.noise_scales, cfg.scale_switch)
+                              cfg.loss_nats, cfg.noise_scales, cfg.scale_switch, clear if cfg.keep_out else None)
     return GaussianBelief(cfg.kind, means, covs, speed_max, names)

@@ -75,6 +75,9 @@ class GaussianBelief:
     def traces(self, candidates: np.ndarray, sensor: BearingModel) -> np.ndarray:
         return gaussian_traces(candidates, self.mean, self.cov, sensor)
 
+    def drain_notes(self) -> list[str]:
+        return []
+
     def samples(self) -> None:
         return None
 

@@ -23,6 +23,12 @@
   [Gordon1993]: jitter ``K E N^(-1/d)`` per dimension, E the spread of
   the particles before resampling.
 * Moments (Eq. 11): weighted mean and covariance.
+* Keep-out (``[filter] keep_out``, not in the paper): the targets keep out of the
+  obstacles, as the true ones do.  The prior is ``N(mu_0, Sigma_0)`` restricted to the
+  starts a true target may take (:func:`restricted_draws`; the truth's own test,
+  :func:`uavsim.truth.clear_starts`), and a particle a prediction carries into an obstacle
+  weighs zero (:meth:`ParticleBelief.keep_out`): the transition density truncated to free
+  space, applied as a weight ([Papaioannou2023]'s filter lets particles cross buildings).
 
 A degenerate update (every particle has zero likelihood, e.g. a missed detection under
 ``p_D = 1``) is detected, skipped and reported; weights never become NaN.
@@ -39,6 +45,9 @@ from ..sensing import EXP_FLOOR, BearingModel, Scan
 from ..targets import Dynamics
 from . import recovery
 from .traces import inverse_cdf, pseudo_traces
+
+PRIOR_ROUNDS = 8  # rejection rounds of a restricted prior (restricted_draws)
+PRIOR_BATCH = 100  # a round draws at most this many times the particles per target
 
 
 class ParticleFilter:
@@ -77,13 +86,15 @@ class ParticleFilter:
 
     @classmethod
     def from_priors(cls, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int,
-                    scales: np.ndarray | None = None, switch: float = 0.0) -> "ParticleFilter":
-        """Sample N particles per target from ``N(mean (M, 6), cov (M, 6, 6))``; ``scales``,
-        ``switch``: see :meth:`predict`."""
-        chol = np.linalg.cholesky(covs)
-        z = rng.standard_normal((means.shape[0], n, 6))
-        particles = means[:, None, :] + np.einsum("mij,mnj->mni", chol, z)
-        return cls(particles, np.full(particles.shape[:2], -np.log(n)), scales, switch, rng)
+                    scales: np.ndarray | None = None, switch: float = 0.0, clear=None) -> "ParticleFilter":
+        """Sample N particles per target from ``N(mean (M, 6), cov (M, 6, 6))``, restricted
+        to the states ``clear`` keeps if given (:func:`restricted_draws`; the pool's
+        :attr:`unrestricted` counts those it could not restrict); ``scales``, ``switch``:
+        see :meth:`predict`."""
+        particles, unrestricted = restricted_draws(rng, means, covs, n, clear)
+        pf = cls(particles, np.full(particles.shape[:2], -np.log(n)), scales, switch, rng)
+        pf.unrestricted = unrestricted
+        return pf
 
     def predict(self, rng: np.random.Generator, a: np.ndarray, b: np.ndarray, q_chol: np.ndarray,
                 controls: np.ndarray, split: tuple[np.ndarray, np.ndarray] | None = None) -> None:
@@ -167,6 +178,42 @@ class ParticleFilter:
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
         """Eq. (11): weighted means (M, 6) and covariances (M, 6, 6)."""
         return weighted_moments(self.particles, self.weights, self._work)
+
+
+def restricted_draws(rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int, clear=None,
+                     rounds: int = PRIOR_ROUNDS) -> tuple[np.ndarray, np.ndarray]:
+    """``(M, n, 6)`` draws from ``N(means (M, 6), covs (M, 6, 6))`` restricted to the
+    states ``clear((M, K, 6)) -> (M, K)`` bool keeps (None: every one), and ``(M,)`` how
+    many of each target's are not restricted.
+
+    Rejection, vectorised over targets: each round draws for every target 1.2 times as many
+    as the target that needs most expects to need at its share of clear first draws (at
+    most :data:`PRIOR_BATCH` times n), and each target's clear draws fill its open places.
+    After ``rounds`` rounds the places still open keep a draw ``clear`` refused, counted:
+    the caller reports them (nothing is fixed silently)."""
+    m = len(means)
+    chol = np.linalg.cholesky(covs)
+
+    def draw(k: int) -> np.ndarray:
+        return means[:, None, :] + np.einsum("mij,mkj->mki", chol, rng.standard_normal((m, k, 6)))
+
+    x = draw(n)
+    if clear is None:
+        return x, np.zeros(m, int)
+    ok = clear(x)
+    accept = np.maximum(ok.mean(axis=1), 1.0 / PRIOR_BATCH)  # (M,) each target's share of clear draws
+    for _ in range(rounds):
+        need = n - ok.sum(axis=1)
+        if not need.any():
+            break
+        new = draw(int(min(np.ceil(1.2 * need / accept).max(), PRIOR_BATCH * n)))
+        good = clear(new)
+        rank = np.cumsum(good, axis=1) - 1  # (M, K) a clear draw's place among its target's
+        holes = np.argsort(ok, axis=1, kind="stable")  # (M, n) each target's open places first
+        tm, tk = np.nonzero(good & (rank < need[:, None]))
+        place = holes[tm, rank[tm, tk]]
+        x[tm, place], ok[tm, place] = new[tm, tk], True
+    return x, n - ok.sum(axis=1)
 
 
 def halves(particles: np.ndarray, weights: np.ndarray, iters: int = 10) -> np.ndarray:
@@ -288,11 +335,19 @@ class ParticleBelief:
 
     def __init__(self, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int,
                  resample_threshold: float, roughening: float, names: tuple[str, ...], loss_nats: float = 0.0,
-                 noise_scales: np.ndarray | None = None, scale_switch: float = 0.0):
+                 noise_scales: np.ndarray | None = None, scale_switch: float = 0.0, clear=None):
         self.rng, self.names = rng, names
         self.threshold, self.roughening, self.loss_nats = resample_threshold, roughening, loss_nats
-        self.pf = ParticleFilter.from_priors(rng, means, covs, n, noise_scales, scale_switch)
+        self.pf = ParticleFilter.from_priors(rng, means, covs, n, noise_scales, scale_switch, clear)
+        self.notes = [f"{names[j]}: {k} of {n} prior particles not restricted to the starts a target may take "
+                      f"(too few clear draws in {PRIOR_ROUNDS} rounds)"
+                      for j, k in enumerate(self.pf.unrestricted) if k]
         self.cusum = np.zeros(len(means))  # (M,) nats of evidence that the cloud has lost its target
+
+    def drain_notes(self) -> list[str]:
+        """The events noted since the last call (a prior that could not be restricted)."""
+        notes, self.notes = self.notes, []
+        return notes
 
     @property
     def lost(self) -> np.ndarray:
@@ -310,6 +365,24 @@ class ParticleBelief:
         if mask is None:
             return np.einsum("mn,mni->mi", self.pf.weights, self.pf.applied)
         return np.einsum("mhn,mni->mhi", half_weights(self.pf.weights, mask)[0], self.pf.applied)
+
+    def keep_out(self, inside) -> list[str]:
+        """The targets keep out of the obstacles: the particles ``inside(positions (M, N,
+        3))`` marks (``(M, N)`` bool) weigh zero, as if a measurement said where no target
+        can be; the clouds are then resampled as an update's are (ESS test), so that a
+        mission without scans (the no-information baseline) does not thin out.  A target
+        whose every particle is inside keeps its weights, reported.  Returns event messages."""
+        hit = inside(self.pf.particles[..., :3])
+        if not hit.any():
+            return []
+        bad, _ = self.pf.update(np.where(hit, -np.inf, 0.0))
+        events = [f"{self.names[j]}: every particle inside an obstacle after the prediction; weights kept"
+                  for j in np.flatnonzero(bad)]
+        resampled = self.pf.resample(self.rng, self.threshold, self.roughening)
+        if resampled.any():
+            events.append("resampled " + ", ".join(self.names[j] for j in np.flatnonzero(resampled))
+                          + " (particles inside obstacles)")
+        return events
 
     def halves(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The cloud in two (:func:`halves`): ``mask (M, N)`` (True: the second half), each

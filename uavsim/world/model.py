@@ -407,10 +407,16 @@ class World:
         return p
 
     def in_obstacle(self, points: np.ndarray) -> np.ndarray:
-        """(...,) bool: point inside any (closed) obstacle, i.e. Eq. (5) fails for one."""
-        if self.n_obstacles == 0:
-            return np.zeros(np.shape(points)[:-1], dtype=bool)
-        return inside_polytopes(np.asarray(points), self.normals, self.offsets).any(axis=-1)
+        """(...,) bool: point inside any (closed) obstacle, i.e. Eq. (5) fails for one.
+        Only the obstacles whose bounding boxes meet the points' are tested: a cloud of
+        particles meets a few of a town's buildings."""
+        points = np.asarray(points, dtype=float)
+        if self.n_obstacles == 0 or points.size == 0:
+            return np.zeros(points.shape[:-1], dtype=bool)
+        flat = points.reshape(-1, 3)
+        lo, hi = flat.min(axis=0), flat.max(axis=0)
+        near = np.flatnonzero(np.all((self.obstacle_lo <= hi) & (self.obstacle_hi >= lo), axis=1))
+        return inside_polytopes(points, self.normals[near], self.offsets[near]).any(axis=-1)
 
     def segment_blocked(self, p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
         """(...,) bool: straight segment p0 -> p1 touches or crosses any obstacle.
