@@ -86,15 +86,14 @@ class ParticleFilter:
 
     @classmethod
     def from_priors(cls, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int,
-                    scales: np.ndarray | None = None, switch: float = 0.0, clear=None) -> "ParticleFilter":
-        """Sample N particles per target from ``N(mean (M, 6), cov (M, 6, 6))``, restricted
-        to the states ``clear`` keeps if given (:func:`restricted_draws`; the pool's
-        :attr:`unrestricted` counts those it could not restrict); ``scales``, ``switch``:
-        see :meth:`predict`."""
-        particles, unrestricted = restricted_draws(rng, means, covs, n, clear)
-        pf = cls(particles, np.full(particles.shape[:2], -np.log(n)), scales, switch, rng)
-        pf.unrestricted = unrestricted
-        return pf
+                    scales: np.ndarray | None = None, switch: float = 0.0, particles: np.ndarray | None = None
+                    ) -> "ParticleFilter":
+        """Sample N particles per target from ``N(mean (M, 6), cov (M, 6, 6))``, or start
+        from ``particles (M, N, 6)`` drawn already (:func:`restricted_draws`); ``scales``,
+        ``switch``: see :meth:`predict`."""
+        if particles is None:
+            particles = restricted_draws(rng, means, covs, n)[0]
+        return cls(particles, np.full(particles.shape[:2], -np.log(n)), scales, switch, rng)
 
     def predict(self, rng: np.random.Generator, a: np.ndarray, b: np.ndarray, q_chol: np.ndarray,
                 controls: np.ndarray, split: tuple[np.ndarray, np.ndarray] | None = None) -> None:
@@ -338,10 +337,10 @@ class ParticleBelief:
                  noise_scales: np.ndarray | None = None, scale_switch: float = 0.0, clear=None):
         self.rng, self.names = rng, names
         self.threshold, self.roughening, self.loss_nats = resample_threshold, roughening, loss_nats
-        self.pf = ParticleFilter.from_priors(rng, means, covs, n, noise_scales, scale_switch, clear)
+        particles, unrestricted = restricted_draws(rng, means, covs, n, clear)
+        self.pf = ParticleFilter.from_priors(rng, means, covs, n, noise_scales, scale_switch, particles)
         self.notes = [f"{names[j]}: {k} of {n} prior particles not restricted to the starts a target may take "
-                      f"(too few clear draws in {PRIOR_ROUNDS} rounds)"
-                      for j, k in enumerate(self.pf.unrestricted) if k]
+                      f"(too few clear draws in {PRIOR_ROUNDS} rounds)" for j, k in enumerate(unrestricted) if k]
         self.cusum = np.zeros(len(means))  # (M,) nats of evidence that the cloud has lost its target
 
     def drain_notes(self) -> list[str]:
