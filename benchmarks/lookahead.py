@@ -16,9 +16,9 @@ PCRLB along each policy's paths (planned truth only), and the policy's median se
 per step.  Campaign folders are kept (``--out``), so a second call only adds trials.
 
 ``--plan-clusters 1`` (the default; the table in docs/results/lookahead.md) moves every particle by the
-plan from the mean in every setting, the generated worlds included, as when the table was
-measured; ``2`` moves each half of the cloud by its own plan (``[filter] plan_clusters``,
-a generated mission's default).  ``--only paper,g12`` runs some settings.
+plan from the mean, re-planned every step (``filter.motion = "replan"``), in every setting,
+the generated worlds included, as when the table was measured; ``2`` moves each half of the
+cloud by its own plan (``[filter] plan_clusters``).  ``--only paper,g12`` runs some settings.
 """
 
 from __future__ import annotations
@@ -78,7 +78,8 @@ def measure(args) -> dict:
         if args.only and name not in args.only.split(","):
             continue
         rng = np.random.default_rng([0, k])  # the bootstrap's draws per setting, whichever settings run
-        mission = replace(mission, trials=args.trials, filter=replace(mission.filter, plan_clusters=args.plan_clusters))
+        mission = replace(mission, trials=args.trials, filter=replace(mission.filter, motion="replan",
+                                                                               plan_clusters=args.plan_clusters))
         err2, summary = {}, {}
         for planner in PLANNERS:
             folder = out / name / planner

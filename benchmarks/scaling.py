@@ -7,8 +7,8 @@
 
 City (K, N, s) is ``uavsim world generate --kind city --seed 7919 K + 101 N + s --obstacles K
 --targets N``, written to ``OUT/cells`` and read through the mission reader as a user
-would.  A setting ``cC-TERM`` runs it with ``filter.plan_clusters = C`` and
-``guidance.terminal = TERM``.  Per city and setting:
+would.  A setting ``cC-TERM`` runs it with ``filter.plan_clusters = C`` (re-planned every
+step, ``filter.motion = "replan"``) and ``guidance.terminal = TERM``.  Per city and setting:
 
 * **first plans** from each target's prior mean, as ``uavsim plan``: seconds, status, gap,
   whether the plan ends in its goal region (and how far out), and, with ``--best-known S``,
@@ -64,8 +64,8 @@ def city(k: int, n: int, s: int, folder: Path) -> Path:
 
 def variant(path: Path, setting: str, steps: int, trials: int):
     clusters, terminal = setting[1:].split("-")
-    return load_mission(path, {"steps": steps, "trials": max(trials, 1), "filter.plan_clusters": int(clusters),
-                               "guidance.terminal": terminal})
+    return load_mission(path, {"steps": steps, "trials": max(trials, 1), "filter.motion": "replan",
+                               "filter.plan_clusters": int(clusters), "guidance.terminal": terminal})
 
 
 def first_plans(m, guidance, best_known: float) -> list[dict]:

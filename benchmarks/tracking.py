@@ -7,11 +7,13 @@
     python benchmarks/tracking.py --report runs/tracking/tracking.json     # the docs' markdown table
 
 Worlds are those of ``benchmarks/towns.py`` (``osm-CROP``, ``town-K``, ``city-K``, ``grid``),
-each mission as imported or generated (its own defaults: two plans per target, track-loss
-detection at 10 nats).  A variant is a UAV policy (``optimized``, Eq. 12-13; ``lookahead``;
+each mission as imported or generated (its own defaults: the particle filter's motion,
+track-loss detection at 10 nats, keeping out of the obstacles).  A variant is a UAV policy
+(``optimized``, Eq. 12-13; ``lookahead``;
 ``fixed-sensors``; a manoeuvre) flown with the mission's filter; ``published``: the
 optimized policy with [Papaioannou2023]'s filter as published (``filter.loss_nats = 0``,
-``filter.plan_clusters = 1``, one process noise Q); ``stochastic-truth``: the optimized
+``filter.motion = "replan"``, ``filter.plan_clusters = 1``, one process noise Q, ``filter.keep_out =
+false``); ``stochastic-truth``: the optimized
 policy against true targets that re-plan and take the process noise Q the filter assumes
 (the control for consistency: the planned truth takes no noise at all); ``budget-0.1``,
 ``budget-0.25``: every re-plan's budget (the truth's and the filter's) at 0.1 or 0.25
@@ -22,7 +24,9 @@ additions (one process noise Q for every particle; no track-loss detection); ``l
 line-of-sight run with P1's link term (``guidance.link_applied_force``, the truth's plans
 and the filter's re-plans alike); ``no-keep-out``: the mission's filter with its particles
 free to cross obstacles and its prior unrestricted (``filter.keep_out = false``; its
-baseline likewise, ``OUT/baseline-False``).  Every variant runs the
+baseline likewise, ``OUT/baseline-False``); ``replan`` and ``commit``: the filter's particles
+moved by re-plans every step, or by the committed plans of clusters (``filter.motion``; the
+baseline likewise, ``OUT/baseline-replan-2``, ``OUT/baseline-commit``).  Every variant runs the
 same trials (trial k seeded from ``SeedSequence(seed).spawn(trials)[k]``) beside the
 no-information baseline of those trials
 (:func:`uavsim.campaign.with_baseline`), and reports what a tracking result needs: RMSE over
@@ -52,7 +56,8 @@ from uavsim.campaign import run_campaign, with_baseline
 from uavsim.config import load_mission
 
 VARIANTS = {  # name -> (planner, mission overrides); any other name is a planner with the mission as it is
-    "published": ("optimized", {"filter.loss_nats": 0.0, "filter.plan_clusters": 1, "filter.noise_scales": [1.0]}),
+    "published": ("optimized", {"filter.loss_nats": 0.0, "filter.motion": "replan", "filter.plan_clusters": 1,
+                                "filter.noise_scales": [1.0], "filter.keep_out": False}),
     "stochastic-truth": ("optimized", {"truth": "stochastic"}),
     "one-level": ("optimized", {"filter.noise_scales": [1.0]}),  # the mission's filter less its noise levels
     "no-loss-detection": ("optimized", {"filter.loss_nats": 0.0}),  # ... less its track-loss detection
@@ -66,10 +71,13 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     # P1 with the step from the applied force weighed (truth and filter), line of sight on
     "link": ("optimized", {"guidance.link_applied_force": True, "sensor.line_of_sight": True}),
     "no-keep-out": ("optimized", {"filter.keep_out": False}),  # particles may cross obstacles, an unrestricted prior
+    # every step re-plans (two halves a target), its noise levels as they were with it
+    "replan": ("optimized", {"filter.motion": "replan", "filter.plan_clusters": 2, "filter.noise_scales": [0.03, 0.3]}),
+    "commit": ("optimized", {"filter.motion": "commit"}),  # clusters' plans made once, flown open loop
 }
 # overrides the baseline takes too: they change the truths (truth, guidance) or what the filter
-# knows without a measurement (keep_out)
-SHARED = ("truth", "guidance.", "filter.keep_out")
+# knows without a measurement (keep_out, motion and its clusters)
+SHARED = ("truth", "guidance.", "filter.keep_out", "filter.motion", "filter.plan_clusters")
 
 
 def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, workers: int, resume: bool) -> dict:

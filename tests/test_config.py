@@ -110,7 +110,13 @@ BAD_MISSIONS = [
     (NO_TARGETS.replace("seed = 2023", "seed = 2023\ntargets = []"), "targets", "at least one"),
     (sub("particles = 5000", 'kind = "ub-plkf"'), "filter.kind", "ub-plkf has no clutter model"),
     (sub("particles = 5000", 'kind = "ekf"'), "filter.kind", "must be one of particle, plkf"),
-    (sub("plan_clusters = 1", "plan_clusters = 3"), "filter.plan_clusters", "must be in [1, 2], got 3"),
+    (sub("plan_clusters = 1", "plan_clusters = 3"), "filter.plan_clusters", "splits a cloud in at most 2, got 3"),
+    (sub("plan_clusters = 1", "plan_clusters = 65").replace('motion = "replan"', 'motion = "commit"'),
+     "filter.plan_clusters", "must be in [1, 64], got 65"),
+    (sub('motion = "replan"', 'motion = "drift"'), "filter.motion", "must be one of replan, commit"),
+    (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "plkf"')
+     .replace('motion = "replan"', 'motion = "commit"')
+     .replace("clutter_rate = 0.5", "clutter_rate = 0.0"), "filter.motion", "needs particles to cluster"),
     (sub("horizon = 50", 'horizon = 50\nterminal = "firm"'), "guidance.terminal", "must be one of soft, hard"),
     (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "plkf"')
      .replace("plan_clusters = 1", "plan_clusters = 2")

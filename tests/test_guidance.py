@@ -35,6 +35,22 @@ def paper_plans(paper_guidance):
     return [paper_guidance.plan(t.mean0, t.cov0, GOAL) for t in MISSION.targets]
 
 
+def test_gains_give_the_forces_of_a_plan_from_a_moved_start(paper_guidance, paper_plans):
+    """``Guidance.gains``: a plan from a start moved by 0.1 m / 0.01 m/s has the forces
+    ``u_t + K_t d`` (P1's optimum is affine in the start while its active set stays: at 0.5 m
+    one of the paper's four plans changes it); zero along z."""
+    d = np.array([0.1, -0.1, 0.01, -0.01])
+    for t, plan in zip(MISSION.targets, paper_plans):
+        k, smooth = paper_guidance.gains(t.mean0, GOAL, plan)
+        assert smooth and k.shape == (len(plan.controls), 3, 4)
+        np.testing.assert_array_equal(k[:, 2], 0.0)
+        x = t.mean0.copy()
+        x[[0, 1, 3, 4]] += d
+        moved = paper_guidance.plan(x, np.zeros((6, 6)), GOAL)
+        np.testing.assert_allclose(moved.controls, plan.controls + k @ d, atol=1e-2)
+        assert np.abs(k @ d).max() > 0.5  # the moved plan's forces do differ
+
+
 def test_margin_big_m_and_speed_polygon_by_hand(paper_guidance):
     g = paper_guidance.geom
     assert g.margin == pytest.approx(16 * 1.0 / 2 + 1.0)  # v dt / 2 + clearance

@@ -10,6 +10,7 @@ from uavsim.belief.gaussian import GaussianBelief
 from uavsim.belief.particle import (
     ParticleBelief,
     ParticleFilter,
+    clusters,
     halves,
     restricted_draws,
     systematic_indices,
@@ -249,6 +250,68 @@ def test_halves_finds_two_separated_clouds_whatever_their_weights():
     assert np.array_equal(side, truth) or np.array_equal(side, ~truth)
     one = halves(a[None], np.full((1, n // 2), 2.0 / n))[0]
     assert abs(one.mean() - 0.5) < 0.05
+
+
+def test_clusters_find_separated_clouds_and_are_deterministic():
+    """Four clouds apart in position or velocity (a plan depends on both), unequal weights,
+    shuffled: k-means with k = 4 labels exactly the four clouds (a permutation of them), the
+    same on a second call.  With k = 6 no cloud is split across another's cluster: every
+    cluster lies inside one cloud."""
+    rng = np.random.default_rng(8)
+    n = 800
+    shifts = np.array([[0, 0, 0, 0, 0, 0], [200, 0, 0, 0, 0, 0], [0, 0, 0, 12, 0, 0], [0, 200, 0, 0, -12, 0]])
+    x = np.concatenate([rng.normal(size=(n, 6)) * [10, 10, 0, 1, 1, 0] + s for s in shifts])
+    cloud = np.repeat(np.arange(4), n)
+    order = rng.permutation(4 * n)
+    w = np.repeat([0.4, 0.3, 0.2, 0.1], n)[order] / n
+    label = clusters(x[order][None], w[None], 4)[0]
+    pairs = set(zip(cloud[order].tolist(), label.tolist()))
+    assert len(pairs) == 4 and len({c for c, _ in pairs}) == 4 and len({k for _, k in pairs}) == 4
+    np.testing.assert_array_equal(label, clusters(x[order][None], w[None], 4)[0])
+    six = clusters(x[order][None], w[None], 6)[0]
+    assert all(len(set(cloud[order][six == k].tolist())) == 1 for k in np.unique(six))
+
+
+def test_committed_prediction_is_the_cluster_force_plus_the_gain_on_the_offset():
+    """``motion = "commit"``: after :meth:`ParticleBelief.commit` each particle's offset is
+    its [x, y, vx, vy] less its cluster's weighted mean, and the prediction is Eq. (9a)
+    with force ``u_c + K_c offset`` (by hand, with the generator's next normals); resampling
+    carries a particle's cluster and offset with it; a re-seeded particle joins the
+    cluster whose mean position is nearest, with no offset."""
+    rng = np.random.default_rng(2)
+    mean = np.zeros((1, 6))
+    cov = np.diag([400.0, 400.0, 1e-10, 4.0, 4.0, 1e-10])[None]
+    b = ParticleBelief(np.random.default_rng(3), mean, cov, 600, 0.5, 0.0, ("T1",))
+    means, _, mass = b.commit(3)
+    lab, x = b.pf.label[0], b.pf.particles[0]
+    np.testing.assert_allclose(mass[0].sum(), 1.0)
+    for c in range(3):
+        np.testing.assert_allclose(means[0, c], x[lab == c].mean(axis=0), atol=1e-9)
+        np.testing.assert_allclose(b.pf.offset[0, lab == c], (x[lab == c] - means[0, c])[:, [0, 1, 3, 4]], atol=1e-9)
+    forces = rng.uniform(-3000, 3000, (1, 3, 3))
+    gains = rng.normal(size=(1, 3, 3, 4)) * 50.0
+    dyn = Dynamics()
+    b.rng = np.random.default_rng(9)
+    b.predict_committed(dyn, forces, gains)
+    u = forces[0, lab] + np.einsum("nij,nj->ni", gains[0, lab], b.pf.offset[0])
+    z = np.random.default_rng(9).standard_normal((1, 600, 6))
+    want = x @ dyn.a.T + u @ dyn.b.T + z[0] @ dyn.q_chol.T
+    np.testing.assert_allclose(b.pf.particles[0], want, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(b.pf.applied[0], u[:, :2])
+    keep = lab == 1  # only cluster 1 survives: every particle then is of cluster 1 with one of its offsets
+    b.pf.logw = np.where(keep, 0.0, -np.inf)[None] - np.log(keep.sum())
+    offsets = b.pf.offset[0, keep]
+    b.pf.resample(np.random.default_rng(4), 1.0)
+    assert (b.pf.label[0] == 1).all()
+    assert np.isin(b.pf.offset[0, :, 0], offsets[:, 0]).all()
+    b.pf.label[0, :300] = 2  # two clusters kept, around their own positions; fresh particles join the nearer
+    b.pf.particles[0, :300, :2] += 500.0
+    b.pf.logw = np.full((1, 600), -np.log(600))
+    fresh = np.zeros((1, 100, 6))
+    fresh[0, :50, :2] = b.pf.particles[0, :300, :2].mean(axis=0)
+    b.reseed(np.array([0]), fresh)
+    np.testing.assert_array_equal(b.pf.label[0, 500:], np.r_[np.full(50, 2), np.full(50, 1)])
+    np.testing.assert_array_equal(b.pf.offset[0, 500:], 0.0)
 
 
 def test_particle_filter_matches_kalman_on_linear_gaussian_toy():

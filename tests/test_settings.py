@@ -109,7 +109,9 @@ def test_one_default_per_setting(tmp_path):
             assert same(getattr(cls(), name), want) == [], (section, name)
             assert same(getattr(obj, name), want) == [], (section, name)
             assert same(getattr(read, name), want) == [], (section, name)
-    assert minimal.filter.plan_clusters == 2 and minimal.filter.keep_out and minimal.planner.name == "optimized"
+    f = minimal.filter  # the derived defaults of a particle filter
+    assert (f.motion, f.plan_clusters, f.noise_scales, f.keep_out) == ("commit", 8, (0.003, 0.03, 0.3), True)
+    assert minimal.planner.name == "optimized"
     assert minimal.steps == 50 and minimal.trials == 10 and minimal.seed == 0 and minimal.truth == "planned"
     assert [s.key for s in dict(sections())["[[targets]]"]] == ["name", "position_m", "velocity_mps", "cov0_si",
                                                                 "goal"]

@@ -344,3 +344,27 @@ def test_keep_out_restricts_the_prior_and_weighs_particles_in_obstacles_zero(tmp
             seen += int((sim._inside(sim.belief.pf.particles[..., :3]) & (sim.belief.pf.weights > 0)).sum())
         inside_weighed[keep] = seen
     assert inside_weighed[True] == 0 and inside_weighed[False] > 0
+
+
+def test_committed_plans_fly_the_truths_plan_and_renew_with_it():
+    """``[filter] motion = "commit"`` end to end: a filter whose prior is the truth's start to
+    a millimetre, without process noise, moves every particle by the forces of the plan the
+    truth made once (to 1 N over eight steps, through the renewal at the end of a 5-step
+    horizon, where truth and filter each plan again from where they are); it re-plans at
+    those two steps only.  Re-planning every step (the paper's filter) flies other forces
+    from step 1 on (see the link-term test above)."""
+    tight = np.diag([1e-6, 1e-6, 1e-10, 1e-8, 1e-8, 1e-10])
+    m = load_mission(PAPER, {"steps": 8, "trials": 1, "filter.particles": 100, "filter.motion": "commit",
+                             "filter.plan_clusters": 2, "filter.noise_scales": [1.0],
+                             "dynamics.process_noise_cov_si": [0.0] * 6, "guidance.horizon": 5})
+    m = dataclasses.replace(m, targets=tuple(dataclasses.replace(t, cov0=tight) for t in m.targets))
+    sim = Simulation(m, "optimized")
+    sim.reset(0)
+    gap, replanned = [], []
+    for _ in range(m.steps):
+        sim.step()
+        truth = np.array([p.controls[(sim.t - 1) % 5, :2] for p in sim.truth.plans])
+        gap.append(np.abs(sim.belief.pf.applied - truth[:, None, :]).max())
+        replanned.append(len(sim.replans))
+    assert max(gap) < 1.0
+    assert replanned == [2 * len(m.targets), 0, 0, 0, 0, 2 * len(m.targets), 0, 0]

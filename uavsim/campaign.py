@@ -225,7 +225,8 @@ def plan_of_work(mission: Mission, workers: int, guidance: tuple[float, float] |
     the plans: ``guidance = (first, replan)`` seconds (:func:`guidance_seconds`; without
     them, the budgets: at most that).  Each process makes each target's first plan from
     the prior mean once; each trial makes its truth's plans (warm-started: re-plans) and
-    their sensitivity, and every step one re-plan per target and cluster (at most).  ``campaigns``:
+    their sensitivity, and every step one re-plan per target and cluster (at most; with
+    committed plans, one per cluster with its gains, and again past each horizon).  ``campaigns``:
     how many campaigns of these trials run (planners and the no-information baseline,
     which plans the same)."""
     m, n = len(mission.targets), mission.filter.particles if mission.filter.kind == "particle" else 1
@@ -237,6 +238,8 @@ def plan_of_work(mission: Mission, workers: int, guidance: tuple[float, float] |
     workers = max(1, min(workers, mission.trials))
     first, replan = guidance or (mission.guidance.time_limit, mission.guidance.replan_budget)
     plans = mission.filter.plan_clusters  # a split cloud is planned from its halves, not its mean (uavsim.sim)
+    if mission.filter.motion == "commit":  # each cluster planned once, with its gains, and again past each horizon
+        plans *= (1 + SENSITIVITY_REPLANS) * (1 + mission.steps // mission.guidance.horizon) / mission.steps
     truth = (mission.steps if mission.truth == "stochastic"  # re-planned every step
              else 1 + SENSITIVITY_REPLANS + mission.steps // mission.guidance.horizon)  # and past each horizon
     # the first plans: made here (guidance_seconds) and kept for the campaigns run here, or
@@ -349,6 +352,8 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
         del data["filter"]["noise_scales"], data["filter"]["scale_switch"]
     if not data["filter"]["keep_out"]:  # particles that may cross obstacles: as before the setting existed
         del data["filter"]["keep_out"]
+    if data["filter"]["motion"] == "replan":  # re-planned every step: as before the setting existed
+        del data["filter"]["motion"]
     if data["guidance"]["terminal"] == "soft":  # likewise
         del data["guidance"]["terminal"]
     if not data["guidance"]["link"]:  # P1 without the link term: as before

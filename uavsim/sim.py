@@ -22,7 +22,14 @@ Each step t -> t+1:
    plan from the mean moves the whole cloud by a force that fits neither part of a
    spread or split cloud (on 50 generated worlds, ``benchmarks/worlds.py``, two plans
    halved the targets lost against a filter handed the truth's forces; docs/methods/filter.md).  A cloud
-   with a half holding less than :data:`MIN_HALF` of the weight moves by the plan from its mean;
+   with a half holding less than :data:`MIN_HALF` of the weight moves by the plan from its mean.
+   With ``[filter] motion = "commit"`` nothing is re-planned: at the first step each cloud
+   is split into ``plan_clusters`` clusters (:func:`.belief.particle.clusters`), each
+   cluster is planned once from its mean (warm-started from the plan at the prior), and a
+   particle flies its cluster's plan open loop, its force corrected by the plan's response
+   to its own start (:meth:`.guidance.Guidance.gains`), as a planned truth flies the plan
+   made from its drawn start; when the plans' horizon ends the clouds are clustered and
+   planned again, as the truth re-plans (:meth:`Simulation._commit_controls`);
 4. **UAV**: the policy moves (:mod:`.uav`: Eq. 12-13 grid moves, a manoeuvre, fixed
    sensors, no sensor), or takes the move given to :meth:`Simulation.step`;
 5. **truth moves**, then **sense and update** (Eq. 4, 9b-11) from the policy's observers;
@@ -40,7 +47,7 @@ random numbers across policies and the baseline).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -112,6 +119,9 @@ class Simulation:
         self.t, self._prepared = 0, False
         self.plans: list[Plan | None] = [None] * len(m.targets)
         self.half_plans: list[list[Plan]] = [[] for _ in m.targets]  # per target: this step's two half plans, or none
+        self.committed: list[list[Plan]] = []  # motion = "commit": per target its clusters' plans
+        self._gains = np.zeros((0, 0, 0, 3, 4))  # (M, K, T, 3, 4) their gains
+        self._committed_at = 0  # the step they were made at
         self.policy.reset(uav_rng)
         return self._info([], [], (None, None), {}, [])
 
@@ -129,6 +139,8 @@ class Simulation:
         split = None
         if self.oracle:
             controls = self._truth_controls
+        elif m.filter.motion == "commit":
+            controls = None
         else:
             previous, shift = self.plans, 1
             if self.t == 0:  # the first re-plans start from the plans at the priors (made once per process)
@@ -136,7 +148,10 @@ class Simulation:
             controls, split = self._plan_controls(previous, shift, events)
         sec["guidance"] = time.perf_counter() - t1
         t2 = time.perf_counter()
-        self.belief.predict(m.dynamics, controls, split)
+        if controls is None:
+            self.belief.predict_committed(m.dynamics, *self._commit_controls(events))
+        else:
+            self.belief.predict(m.dynamics, controls, split)
         if m.filter.keep_out:
             events += self.belief.keep_out(self._inside)
         events += self.belief.drain_notes()
@@ -174,6 +189,8 @@ class Simulation:
         :attr:`plans` entry is one of them), else its plan from the mean; none under the oracle."""
         if self.oracle or self.t == 0:
             return []
+        if self.m.filter.motion == "commit":  # the committed plans, at the step they were made
+            return [p for plans in self.committed for p in plans] if self._committed_at == self.t - 1 else []
         return [p for plan, halves in zip(self.plans, self.half_plans) for p in (halves or [plan])]
 
     def _clear(self, states: np.ndarray) -> np.ndarray:
@@ -260,6 +277,39 @@ class Simulation:
         self.plans = plans
         return both[:, 0], (mask, both[:, 1])
 
+    def _commit_controls(self, events: list[str]) -> tuple[np.ndarray, np.ndarray]:
+        """``motion = "commit"`` (module docstring): this step's force of every cluster's plan
+        ``(M, K, 3)`` and its gains ``(M, K, 3, 4)``; at the first step, and when the plans
+        run out, the clouds are clustered and planned anew.  A target's :attr:`plans` entry
+        is its heaviest cluster's plan from this step on."""
+        k = self.m.filter.plan_clusters
+        age = self.t - self._committed_at
+        if self.t == 0 or age >= len(self.committed[0][0].controls):
+            means, covs, mass = self.belief.commit(k)
+            self.committed = [[self._replan(j, means[j, c], covs[j, c], self._prior_plan(j) if self.t == 0 else None,
+                                            events, f"estimate, cluster {c + 1}", shift=0) for c in range(k)]
+                              for j in range(len(means))]
+            self._gains = np.array([[self._plan_gains(j, means[j, c], p, events) for c, p in enumerate(plans)]
+                                    for j, plans in enumerate(self.committed)])
+            self._committed_at, age = self.t, 0
+        else:
+            mass = self.belief.cluster_mass(k)
+        self.plans = [_from_step(plans[int(np.argmax(w))], age) for plans, w in zip(self.committed, mass)]
+        return np.array([[p.controls[age] for p in plans] for plans in self.committed]), self._gains[:, :, age]
+
+    def _plan_gains(self, j: int, start: np.ndarray, plan: Plan, events: list[str]) -> np.ndarray:
+        """``(T, 3, 4)`` target j's plan's gains (:meth:`.guidance.Guidance.gains`); zero
+        for a fallback plan or where no plan exists from a moved start (an event)."""
+        zero = np.zeros((len(plan.controls), 3, 4))
+        if plan.status == "fallback":
+            return zero
+        try:
+            return self.guidance.gains(start, self.m.goals[j], plan, self.t)[0]
+        except RuntimeError as exc:
+            events.append(f"{self.m.targets[j].name} (estimate): its cluster's particles fly the plan's forces "
+                          f"unchanged ({exc})")
+            return zero
+
     def _half_warm(self, j: int, start: np.ndarray, previous: Plan | None, shift: int) -> Plan | None:
         """The warm start of a half of target j's cloud with mean ``start (6,)``: of the
         previous step's half plans, the one whose prediction of this step lies nearest
@@ -269,6 +319,14 @@ class Simulation:
             return previous
         miss = [np.hypot(*(p.means[0, :2] - start[:2])) for p in last]
         return last[int(np.argmin(miss))]
+
+
+def _from_step(plan: Plan, age: int) -> Plan:
+    """``plan`` from its step ``age`` on (the same object at 0)."""
+    if not age:
+        return plan
+    return replace(plan, controls=plan.controls[age:], means=plan.means[age:], covs=plan.covs[age:],
+                   faces=None if plan.faces is None else plan.faces[age:])
 
 
 def target_bearings(infos: list[StepInfo], target: int, dt: float, sensor: int = 0

@@ -27,6 +27,10 @@ from .gaussian import GaussianBelief
 from .particle import ParticleBelief
 
 KINDS = ("particle", *FILTERS)
+MOTIONS = ("replan", "commit")  # FilterConfig.motion
+# process-noise levels by motion (measured on the towns: docs/results/towns.md, committed plans): a
+# particle flying a committed plan with its gains rarely misses the truth's force; the lowest level fits those
+REPLAN_SCALES, COMMIT_SCALES = (0.03, 0.3), (0.003, 0.03, 0.3)
 
 
 @dataclass(frozen=True)
@@ -35,17 +39,22 @@ class FilterConfig:
     one of [Huang2021]'s pseudo-linear Kalman filters (clutter-free sensors only); particle
     settings.
 
-    ``plan_clusters``: 1, every particle moves by the plan from the posterior mean
-    ([Papaioannou2023, Sec. V]; the paper's missions say so); 2 (the default for
-    particles), the cloud is split in two (:func:`.particle.halves`) and each half moves by
-    the plan from its own mean (particle filters only; see :mod:`uavsim.sim`).
+    ``motion``: how the particles' forces come from guidance plans (:mod:`uavsim.sim`).
+    ``"replan"``: every step re-plans; with ``plan_clusters`` 1 every particle moves by the
+    plan from the posterior mean ([Papaioannou2023, Sec. V]; the paper's missions say so),
+    with 2 the cloud is split in two (:func:`.particle.halves`) and each half moves by the
+    plan from its own mean.  ``"commit"``: the cloud is split once into ``plan_clusters``
+    clusters (:func:`.particle.clusters`), each planned once and flown open loop until its
+    horizon ends, as a planned truth flies its plan (particle filters only).
 
     ``loss_nats``, ``reseed_share``: track-loss detection (:class:`.particle.ParticleBelief`)
     and recovery (:mod:`.recovery`); ``noise_scales``, ``scale_switch``: process-noise
-    levels the particles jump between (:meth:`.particle.ParticleFilter.predict`); particle
-    filters only.  ``keep_out``: the targets keep out of the obstacles
-    (:meth:`.particle.ParticleBelief.keep_out`).  The paper's missions set ``loss_nats = 0``,
-    ``noise_scales = [1.0]`` and ``keep_out = false``, its filter as published."""
+    levels the particles jump between (:meth:`.particle.ParticleFilter.predict`; with
+    committed plans a third, lowest level by default); particle filters only.
+    ``keep_out``: the targets keep out of the obstacles
+    (:meth:`.particle.ParticleBelief.keep_out`).  The paper's missions set ``motion =
+    "replan"``, ``plan_clusters = 1``, ``loss_nats = 0``, ``noise_scales = [1.0]`` and
+    ``keep_out = false``, its filter as published."""
 
     kind: str = setting("kind", "particle", choices=KINDS,
                         doc="the estimator: particle filters ([Papaioannou2023, Sec. V-A]) or a pseudo-linear "
@@ -61,14 +70,21 @@ class FilterConfig:
                                    "nats, and re-seed it from the bearings; 0: never (the paper's filter)")
     reseed_share: float = setting("reseed_share", 0.5, lo=0.01, hi=1,
                                   doc="share of a lost track's particles re-seeded from the bearings and routes")
-    noise_scales: tuple[float, ...] = setting("noise_scales", [0.03, 0.3], kind="array", shape=(None,), lo=1e-6, hi=1e6,
+    noise_scales: tuple[float, ...] = setting("noise_scales", kind="array", shape=(None,), lo=1e-6, hi=1e6,
+                                       derived="[0.003, 0.03, 0.3] for motion = commit, else [0.03, 0.3]",
                                        doc="multipliers of the process noise Q a particle may carry (jump-Markov "
                                            "[McGinnity2000]: the bearings weigh which fits); one value: every "
                                            "particle uses Q")
     scale_switch: float = setting("scale_switch", 0.02, lo=0, hi=1,
                                   doc="per step, the chance a particle redraws its process-noise multiplier")
-    plan_clusters: int = setting("plan_clusters", kind="integer", lo=1, hi=2, derived="2 for kind = particle, else 1",
-                                 doc="plans per target: 1 from the mean, 2 one per half of the particle cloud")
+    motion: str = setting("motion", choices=MOTIONS, derived="commit for kind = particle, else replan",
+                          doc="replan: every step re-plans each target from its belief (Eq. 8c); commit: the "
+                              "particle cloud is split once into plan_clusters clusters, each planned once and "
+                              "flown open loop, as a planned truth flies its plan (particle filters only)")
+    plan_clusters: int = setting("plan_clusters", kind="integer", lo=1, hi=64,
+                                 derived="8 for motion = commit, 2 for kind = particle, else 1",
+                                 doc="plans per target: with motion = replan 1 from the mean or 2 one per half of the "
+                                     "particle cloud; with motion = commit one per cluster")
     keep_out: bool = setting("keep_out", kind="boolean", derived="true for kind = particle, else false",
                              doc="the filter knows the targets keep out of the obstacles, as the true ones do: its "
                                  "prior is N(mu_0, Sigma_0) restricted to the starts a true target may take, and a "
@@ -76,10 +92,21 @@ class FilterConfig:
                                  "false: the prior and prediction of [Papaioannou2023, Sec. V-A])")
 
     def __post_init__(self):
+        if self.motion is None:
+            object.__setattr__(self, "motion", "commit" if self.kind == "particle" else "replan")
+        if self.noise_scales is None:
+            object.__setattr__(self, "noise_scales", COMMIT_SCALES if self.motion == "commit" else REPLAN_SCALES)
         # a tuple, so that settings compare (an array field would make == ambiguous)
         object.__setattr__(self, "noise_scales", tuple(float(v) for v in np.atleast_1d(self.noise_scales)))
+        if self.motion == "commit" and self.kind != "particle":
+            raise SettingError("motion", f"needs particles to cluster (kind = \"particle\"), got kind = "
+                                         f"\"{self.kind}\"")
         if self.plan_clusters is None:
-            object.__setattr__(self, "plan_clusters", 2 if self.kind == "particle" else 1)
+            object.__setattr__(self, "plan_clusters", 8 if self.motion == "commit" else 2 if self.kind == "particle"
+                               else 1)
+        if self.motion == "replan" and self.plan_clusters > 2:
+            raise SettingError("plan_clusters", f"re-planning every step splits a cloud in at most 2, got "
+                                                f"{self.plan_clusters} (more with motion = \"commit\")")
         if self.plan_clusters > 1 and self.kind != "particle":
             raise SettingError("plan_clusters", f"needs particles to split (kind = \"particle\"), got kind = "
                                                 f"\"{self.kind}\"")

@@ -10,6 +10,10 @@
   more values each particle carries one of them and its noise is ``N(0, scale Q)``; a
   particle redraws its scale uniformly with probability ``scale_switch`` per step (a
   jump-Markov model [McGinnity2000]), and the weights keep the scales the bearings support.
+  With ``[filter] motion = "commit"`` the cloud is instead split once into K clusters
+  (:func:`clusters`), each cluster's plan is made once and flown open loop, and a particle
+  moves by its cluster's force plus the plan's response to its own start's offset from the
+  cluster's mean (:meth:`ParticleBelief.predict_committed`; see :mod:`uavsim.sim`).
 * Update (Eq. 9b) with the measurement-set likelihood Eq. (10).  For uniform clutter
   ``p(phi) = 1 / (2 pi)`` and ``Psi(n; L) = e^-L L^n / n!`` the factorials cancel:
 
@@ -42,7 +46,7 @@ import numpy as np
 
 from ..metrics import credible_level
 from ..sensing import EXP_FLOOR, BearingModel, Scan
-from ..targets import Dynamics
+from ..targets import HORIZONTAL, Dynamics
 from . import recovery
 from .traces import inverse_cdf, pseudo_traces
 
@@ -69,6 +73,8 @@ class ParticleFilter:
         self.switch = switch
         self.mode = None if self.levels is None else rng.integers(len(self.levels), size=particles.shape[:2])
         self.applied = np.zeros((*particles.shape[:2], 2))  # (M, N) the ground force each particle moved by last
+        self.label = np.zeros(particles.shape[:2], np.intp)  # (M, N) each particle's cluster (motion = "commit")
+        self.offset = np.zeros((*particles.shape[:2], 4))  # (M, N, 4) its start less its cluster's mean, HORIZONTAL
 
     @property
     def logw(self) -> np.ndarray:
@@ -97,14 +103,18 @@ class ParticleFilter:
 
     def predict(self, rng: np.random.Generator, a: np.ndarray, b: np.ndarray, q_chol: np.ndarray,
                 controls: np.ndarray, split: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-        """Eq. (9a): ``x <- A x + B u + nu`` with ``controls (M, 3)``; ``split = (mask (M, N)
-        bool, other (M, 3))``: the masked particles take ``other`` instead.  With noise
+        """Eq. (9a): ``x <- A x + B u + nu`` with ``controls (M, 3)``, or ``(M, N, 3)`` one per
+        particle; ``split = (mask (M, N) bool, other (M, 3))``: the masked particles take
+        ``other`` instead.  With noise
         levels (``scales`` of :meth:`from_priors`, two or more) particle n's ``nu`` is
         ``sqrt(scales[mode_n]) L z`` and ``mode`` jumps first (module docstring).
 
         The noise goes through two buffers kept between calls: fresh temporaries of this
         size cost page faults on every step (the allocator returns them to the system)."""
         x = self.particles @ a.T
+        own = controls if controls.ndim == 3 else None  # (M, N, 3): added after the noise
+        if own is not None:
+            controls = np.zeros((len(x), own.shape[-1]))
         noise = rng.standard_normal(out=_scratch(self._work, "z", x.shape))
         if self.levels is not None:
             jump = rng.random(self.mode.shape) < self.switch
@@ -116,6 +126,9 @@ class ParticleFilter:
         else:  # a diagonal Q (every mission file's): L z is a scaling, done with B u in one wide pass
             x += _affine_rows(noise, np.diagonal(q_chol), controls @ b.T)
         self.applied[:] = controls[:, None, :2]
+        if own is not None:
+            x += own @ b.T
+            self.applied[:] = own[..., :2]
         if split is not None:
             mask, other = split
             x += mask[..., None] * ((other - controls) @ b.T)[:, None, :]
@@ -169,6 +182,8 @@ class ParticleFilter:
         if self.mode is not None:
             self.mode[rows] = self.mode.reshape(-1).take(flat).reshape(rows.size, n)
         self.applied[rows] = self.applied.reshape(m * n, 2).take(flat, axis=0).reshape(rows.size, n, 2)
+        self.label[rows] = self.label.reshape(-1).take(flat).reshape(rows.size, n)
+        self.offset[rows] = self.offset.reshape(m * n, 4).take(flat, axis=0).reshape(rows.size, n, 4)
         logw = self.logw.copy()
         logw[rows] = -np.log(n)
         self.logw = logw
@@ -177,6 +192,17 @@ class ParticleFilter:
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
         """Eq. (11): weighted means (M, 6) and covariances (M, 6, 6)."""
         return weighted_moments(self.particles, self.weights, self._work)
+
+
+def nearest_label(particles: np.ndarray, label: np.ndarray, fresh: np.ndarray) -> np.ndarray:
+    """``(L, R)``: for ``fresh (L, R, 6)`` particles, the cluster of ``particles (L, N, 6)``
+    (labelled ``label (L, N)``) whose mean position is nearest."""
+    k = int(label.max()) + 1 if label.size else 1
+    member = label[..., None] == np.arange(k)  # (L, N, k)
+    count = member.sum(axis=1)  # (L, k)
+    centre = np.einsum("lnk,lni->lki", member, particles[..., :2]) / np.maximum(count, 1)[..., None]
+    d = ((fresh[:, :, None, :2] - centre[:, None]) ** 2).sum(-1)  # (L, R, k)
+    return np.argmin(np.where(count[:, None, :] > 0, d, np.inf), axis=2)
 
 
 def restricted_draws(rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int, clear=None,
@@ -238,6 +264,46 @@ def halves(particles: np.ndarray, weights: np.ndarray, iters: int = 10) -> np.nd
     c0, c1, m0, m1 = _centres(z, weights, side)
     between = m0 * (c0 * c0).sum(-1) + m1 * (c1 * c1).sum(-1)  # (M, 5)
     return side[np.arange(len(z)), np.argmax(between, axis=1)]
+
+
+def clusters(particles: np.ndarray, weights: np.ndarray, k: int, iters: int = 20) -> np.ndarray:
+    """``(M, N)`` labels in ``range(k)``: each cloud in ``k`` clusters by weighted k-means on
+    ``[x, y, vx, vy]`` scaled by its standard deviations (as :func:`halves`), Lloyd's
+    iterations from the farthest-point rule (the weighted particle farthest from the mean,
+    then each next the farthest from the centres so far).  Deterministic; a cluster may be
+    empty (a cloud of fewer than ``k`` distinct weighted particles)."""
+    z = particles[..., HORIZONTAL]
+    z = z - np.einsum("mn,mni->mi", weights, z)[:, None, :]
+    sd = np.sqrt(np.einsum("mn,mni->mi", weights, z * z))
+    z /= np.where(sd > 0, sd, 1.0)[:, None, :]
+    rows, live = np.arange(len(z)), weights > 0
+    centres = np.empty((len(z), k, 4))
+    near = (z * z).sum(-1)  # (M, N) squared distance to the nearest centre so far (the mean, at first)
+    for c in range(k):
+        centres[:, c] = z[rows, np.argmax(np.where(live, near, -1.0), axis=1)]
+        gap = ((z - centres[:, c, None]) ** 2).sum(-1)
+        near = np.minimum(near, gap) if c else gap
+    label = None
+    for _ in range(iters):
+        d = (centres * centres).sum(-1)[:, None, :] - 2.0 * z @ centres.transpose(0, 2, 1)  # (M, N, k) + |z|^2
+        new = np.argmin(d, axis=2)
+        if label is not None and np.array_equal(new, label):
+            break
+        label = new
+        member = (label[..., None] == np.arange(k)) * weights[..., None]  # (M, N, k)
+        mass = member.sum(axis=1)
+        sums = np.einsum("mnk,mni->mki", member, z)
+        centres = np.where(mass[..., None] > 0, sums / np.where(mass > 0, mass, 1.0)[..., None], centres)
+    return label
+
+
+def cluster_weights(weights: np.ndarray, label: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(parts (M, k, N), mass (M, k))``: :func:`half_weights` for ``k`` clusters labelled
+    ``label (M, N)``."""
+    parts = weights[:, None, :] * (label[:, None, :] == np.arange(k)[None, :, None])
+    mass = parts.sum(axis=2)
+    safe = np.where(mass > 0, mass, 1.0)[..., None]
+    return np.where(mass[..., None] > 0, parts / safe, weights[:, None, :]), mass
 
 
 def half_weights(weights: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -383,6 +449,34 @@ class ParticleBelief:
                           + " (particles inside obstacles)")
         return events
 
+    def commit(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Split each cloud in ``k`` clusters (:func:`clusters`), which the particles keep
+        (resampling copies a particle's cluster and offset); each particle's offset is its
+        ``[x, y, vx, vy]`` less its cluster's mean.  Returns each cluster's mean ``(M, k, 6)``,
+        covariance ``(M, k, 6, 6)`` and weight ``(M, k)`` (an empty cluster has the cloud's
+        mean and covariance and weight 0)."""
+        self.pf.label = clusters(self.pf.particles, self.pf.weights, k)
+        parts, mass = cluster_weights(self.pf.weights, self.pf.label, k)
+        means, covs = zip(*(weighted_moments(self.pf.particles, parts[:, c]) for c in range(k)))
+        means = np.stack(means, axis=1)
+        own = np.take_along_axis(means, self.pf.label[..., None], axis=1)  # (M, N, 6)
+        self.pf.offset = (self.pf.particles - own)[..., HORIZONTAL]
+        return means, np.stack(covs, axis=1), mass
+
+    def cluster_mass(self, k: int) -> np.ndarray:
+        """``(M, k)`` the weight each cluster of :meth:`commit` holds now."""
+        return cluster_weights(self.pf.weights, self.pf.label, k)[1]
+
+    def predict_committed(self, dynamics: Dynamics, forces: np.ndarray, gains: np.ndarray) -> None:
+        """Eq. (9a) with committed plans: particle n of cluster c moves by ``forces[:, c]
+        (M, k, 3) + gains[:, c] (M, k, 3, 4) @ offset_n``, its cluster plan's force and that
+        plan's response to a start moved by the particle's offset
+        (:meth:`uavsim.guidance.Guidance.gains`)."""
+        lab = self.pf.label
+        own = np.take_along_axis(forces, lab[..., None], axis=1)  # (M, N, 3)
+        own += np.einsum("mnij,mnj->mni", np.take_along_axis(gains, lab[..., None, None], axis=1), self.pf.offset)
+        self.pf.predict(self.rng, dynamics.a, dynamics.b, dynamics.q_chol, own)
+
     def halves(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The cloud in two (:func:`halves`): ``mask (M, N)`` (True: the second half), each
         half's weight ``mass (M, 2)``, mean ``(M, 2, 6)`` and covariance ``(M, 2, 6, 6)``
@@ -431,7 +525,9 @@ class ParticleBelief:
         """Targets ``rows (L,)`` take ``fresh (L, R, 6)`` particles in place of R of their
         own: the cloud is first resampled (systematic) to ``N - R`` equally weighted
         particles, so the part still on the target keeps its share, and every particle
-        then weighs ``1 / N``; the loss evidence of those targets restarts at 0."""
+        then weighs ``1 / N``; the loss evidence of those targets restarts at 0.  A fresh
+        particle joins the committed cluster whose kept particles' mean position is nearest
+        (:func:`nearest_label`), with no offset: it flies that cluster's plan."""
         n = self.pf.particles.shape[1]
         keep = n - fresh.shape[1]
         idx = systematic_indices(self.rng, self.pf.weights[rows], keep)
@@ -440,6 +536,10 @@ class ParticleBelief:
         kept_force = np.take_along_axis(self.pf.applied[rows], idx[..., None], axis=1)
         self.pf.applied[rows] = np.concatenate([kept_force, np.broadcast_to(
             kept_force.mean(axis=1, keepdims=True), (*fresh.shape[:2], 2))], axis=1)
+        kept_label = np.take_along_axis(self.pf.label[rows], idx, axis=1)
+        self.pf.label[rows] = np.concatenate([kept_label, nearest_label(kept, kept_label, fresh)], axis=1)
+        self.pf.offset[rows] = np.concatenate([np.take_along_axis(self.pf.offset[rows], idx[..., None], axis=1),
+                                               np.zeros((*fresh.shape[:2], 4))], axis=1)
         if self.pf.mode is not None:
             self.pf.mode[rows] = np.concatenate([np.take_along_axis(self.pf.mode[rows], idx, axis=1), self.rng.integers(
                 len(self.pf.levels), size=fresh.shape[:2])], axis=1)

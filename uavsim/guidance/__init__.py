@@ -262,6 +262,25 @@ class Guidance:
             cols.append((fwd + bwd) / 2)
         return np.stack(cols, axis=-1), smooth
 
+    def gains(self, start: np.ndarray, goal: np.ndarray, plan: Plan, step: int = 0) -> tuple[np.ndarray, bool]:
+        """``(K (T, 3, 4), smooth)``: d ``plan.controls`` / d ``start`` on [x, y, vx, vy], the
+        force a plan from a start moved by ``d`` changes by, ``K_t d`` (:meth:`sensitivity`;
+        zero along z).  With ``G_t = d x_{t+1} / d x_0`` and Eq. (1) on the ground,
+        ``G_t = A G_{t-1} + B K_t`` (``G_{-1} = I``), so ``K_t = B^+ (G_t - A G_{t-1})``
+        (the plan's means follow Eq. (1), so the difference lies in B's range, and B has full
+        column rank).
+
+        Raises
+        ------
+        RuntimeError when no plan exists from a start moved by the sensitivity's step.
+        """
+        g, smooth = self.sensitivity(start, goal, plan, step)
+        a = self.dynamics.a[np.ix_(HORIZONTAL, HORIZONTAL)]
+        b = self.dynamics.b[HORIZONTAL, :2]
+        before = np.concatenate([np.eye(4)[None], g[:-1]])  # G_{t-1}
+        k = np.linalg.pinv(b) @ (g - a @ before)  # (T, 2, 4)
+        return np.concatenate([k, np.zeros((len(g), 1, 4))], axis=1), smooth
+
     def _branch_means(self, start: np.ndarray, goal: np.ndarray, plan: Plan, step: int) -> np.ndarray | None:
         """``(T, 6)`` the means of P1's plan from ``start`` on ``plan``'s face choice (see
         :meth:`sensitivity`), None if there is none."""
