@@ -298,8 +298,12 @@ class Simulation:
         return np.array([[p.controls[age] for p in plans] for plans in self.committed]), self._gains[:, :, age]
 
     def _plan_gains(self, j: int, start: np.ndarray, plan: Plan, events: list[str]) -> np.ndarray:
-        """``(T, 3, 4)`` target j's plan's gains (:meth:`.guidance.Guidance.gains`); zero
-        for a fallback plan or where no plan exists from a moved start (an event)."""
+        """``(T, 3, 4)`` target j's plan's gains (:meth:`.guidance.Guidance.gains`) at the
+        cluster's mean ``start``; zero for a fallback plan or where no plan exists from a
+        moved start (an event).  A plan made from another start (the nearest within the
+        limits, or at rest: :meth:`.guidance.Guidance.replan`) gets the central difference
+        at ``start`` all the same (the two one-sided differences from the plan's own means
+        cancel that offset), or zero where no plan exists there."""
         zero = np.zeros((len(plan.controls), 3, 4))
         if plan.status == "fallback":
             return zero
