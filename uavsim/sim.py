@@ -286,9 +286,9 @@ class Simulation:
         age = self.t - self._committed_at
         if self.t == 0 or age >= len(self.committed[0][0].controls):
             means, covs, mass = self.belief.commit(k)
-            self.committed = [[self._replan(j, means[j, c], covs[j, c], self._prior_plan(j) if self.t == 0 else None,
-                                            events, f"estimate, cluster {c + 1}", shift=0) for c in range(k)]
-                              for j in range(len(means))]
+            warm = [self._prior_plan(j) if self.t == 0 else None for j in range(len(means))]
+            self.committed = [[self._replan(j, means[j, c], covs[j, c], warm[j], events, f"estimate, cluster {c + 1}",
+                                            shift=0) for c in range(k)] for j in range(len(means))]
             self._gains = np.array([[self._plan_gains(j, means[j, c], p, events) for c, p in enumerate(plans)]
                                     for j, plans in enumerate(self.committed)])
             self._committed_at, age = self.t, 0

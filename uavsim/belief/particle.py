@@ -298,22 +298,20 @@ def clusters(particles: np.ndarray, weights: np.ndarray, k: int, iters: int = 20
 
 
 def cluster_weights(weights: np.ndarray, label: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(parts (M, k, N), mass (M, k))``: :func:`half_weights` for ``k`` clusters labelled
-    ``label (M, N)``."""
+    """``(parts (M, k, N), mass (M, k))``: the weights ``(M, N)`` of each of ``k`` clusters
+    labelled ``label (M, N)`` (a split's mask is labels 0 and 1), renormalised within the
+    cluster (an empty cluster takes the whole cloud's), and each cluster's share of the weight."""
     parts = weights[:, None, :] * (label[:, None, :] == np.arange(k)[None, :, None])
     mass = parts.sum(axis=2)
     safe = np.where(mass > 0, mass, 1.0)[..., None]
     return np.where(mass[..., None] > 0, parts / safe, weights[:, None, :]), mass
 
 
-def half_weights(weights: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(parts (M, 2, N), mass (M, 2))``: the weights ``(M, N)`` of each half of a split
-    ``mask (M, N)`` (False, True), renormalised within the half (an empty half takes the
-    whole cloud's), and each half's share of the weight."""
-    parts = np.stack([weights * ~mask, weights * mask], axis=1)
-    mass = parts.sum(axis=2)
-    safe = np.where(mass > 0, mass, 1.0)[..., None]
-    return np.where(mass[..., None] > 0, parts / safe, weights[:, None, :]), mass
+def part_moments(particles: np.ndarray, parts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted means ``(M, k, 6)`` and covariances ``(M, k, 6, 6)`` of the clouds
+    ``particles (M, N, 6)`` under each of the weights ``parts (M, k, N)``."""
+    means, covs = zip(*(weighted_moments(particles, parts[:, c]) for c in range(parts.shape[1])))
+    return np.stack(means, axis=1), np.stack(covs, axis=1)
 
 
 def _centres(z, weights, side):
@@ -429,7 +427,7 @@ class ParticleBelief:
         an empty half's is the cloud's)."""
         if mask is None:
             return np.einsum("mn,mni->mi", self.pf.weights, self.pf.applied)
-        return np.einsum("mhn,mni->mhi", half_weights(self.pf.weights, mask)[0], self.pf.applied)
+        return np.einsum("mhn,mni->mhi", cluster_weights(self.pf.weights, mask, 2)[0], self.pf.applied)
 
     def keep_out(self, inside) -> list[str]:
         """The targets keep out of the obstacles: the particles ``inside(positions (M, N,
@@ -457,11 +455,10 @@ class ParticleBelief:
         mean and covariance and weight 0)."""
         self.pf.label = clusters(self.pf.particles, self.pf.weights, k)
         parts, mass = cluster_weights(self.pf.weights, self.pf.label, k)
-        means, covs = zip(*(weighted_moments(self.pf.particles, parts[:, c]) for c in range(k)))
-        means = np.stack(means, axis=1)
+        means, covs = part_moments(self.pf.particles, parts)
         own = np.take_along_axis(means, self.pf.label[..., None], axis=1)  # (M, N, 6)
         self.pf.offset = (self.pf.particles - own)[..., HORIZONTAL]
-        return means, np.stack(covs, axis=1), mass
+        return means, covs, mass
 
     def cluster_mass(self, k: int) -> np.ndarray:
         """``(M, k)`` the weight each cluster of :meth:`commit` holds now."""
@@ -482,9 +479,8 @@ class ParticleBelief:
         half's weight ``mass (M, 2)``, mean ``(M, 2, 6)`` and covariance ``(M, 2, 6, 6)``
         (those of an empty half are the whole cloud's)."""
         mask = halves(self.pf.particles, self.pf.weights)
-        parts, mass = half_weights(self.pf.weights, mask)
-        means, covs = zip(*(weighted_moments(self.pf.particles, parts[:, h]) for h in range(2)))
-        return mask, mass, np.stack(means, axis=1), np.stack(covs, axis=1)
+        parts, mass = cluster_weights(self.pf.weights, mask, 2)
+        return (mask, mass, *part_moments(self.pf.particles, parts))
 
     def update(self, scans: list[Scan], observers: np.ndarray, sensor: BearingModel) -> list[str]:
         if not scans:  # no sensor: the prediction is the posterior
