@@ -95,15 +95,50 @@ def test_the_summary_counts_truth_collisions_from_the_first_step(tmp_path, truth
     assert s["truth_collisions"] == 0 and "events" in s
 
 
-def test_start_acceptance_is_the_share_of_the_prior_kept(tmp_path):
+def test_start_prior_is_the_share_kept_and_its_covariance(tmp_path):
     """A prior centred on the wall's inflated west face (x = 291), at rest with velocity
     variance 1e-10 (the first step is the start): a start is kept when x < 291 (or beyond
     the inflated east face at 329, 3.8 sd away), so the share is 0.5 + 7e-5; from 4000
-    draws its binomial standard error is 0.0079, and the tolerance is 4 of them.  A prior
-    far from the wall keeps every draw: exactly 1."""
-    from uavsim.truth import start_acceptance
+    draws its binomial standard error is 0.0079, and the tolerance is 4 of them.
+
+    The kept starts' x is a half normal: variance ``100 (1 - 2 / pi) = 36.34``.  The
+    estimate ``100 + S_kept - S_all`` errs by at most the sum of the two sample variances'
+    standard errors: ``sqrt((mu_4 - sigma^4) / 2000) = 1.37`` for the half normal (``mu_4 =
+    0.510``, ``sigma^2 = 0.363`` in units of 100) and ``100 sqrt(2 / 4000) = 2.24``; the
+    tolerance is 4 x 3.61.  y is not restricted: ``100 + (S_kept - S_rejected) / 2``, s.e.
+    ``sqrt(2 x 100^2 x 2 / 2000) / 2 = 2.24``, tolerance 4 of them.  A prior far from the
+    wall keeps every draw: share 1 and ``Sigma_0`` itself, exactly."""
+    from uavsim.truth import start_prior
 
     on_face = mission(tmp_path, (291.0, 150.0), (0.0, 0.0), [100.0, 100.0, 1e-10, 1e-10, 1e-10, 1e-10])
-    assert start_acceptance(on_face, np.random.default_rng(0))[0] == pytest.approx(0.5, abs=4 * 0.0079)
+    share, cov = start_prior(on_face, np.random.default_rng(0))
+    assert share[0] == pytest.approx(0.5, abs=4 * 0.0079)
+    assert cov[0, 0, 0] == pytest.approx(100 * (1 - 2 / np.pi), abs=4 * 3.61)
+    assert cov[0, 1, 1] == pytest.approx(100.0, abs=4 * 2.24)
+    assert cov[0, 2, 2] == on_face.targets[0].cov0[2, 2]  # z is not the bound's: Sigma_0's
+    assert np.linalg.eigvalsh(cov[0]).min() > 0
     clear = mission(tmp_path, (100.0, 150.0), (0.0, 0.0), [100.0, 100.0, 1e-10, 1.0, 1.0, 1e-10])
-    assert start_acceptance(clear, np.random.default_rng(0))[0] == 1.0
+    share, cov = start_prior(clear, np.random.default_rng(0))
+    assert share[0] == 1.0 and np.array_equal(cov[0], clear.targets[0].cov0)
+
+
+def test_the_campaign_bound_takes_the_prior_the_starts_come_from(tmp_path):
+    """The wall-face prior of the test above, moving (velocity variance 1): about half of
+    it is cut.  With no sensor the bound is the prior carried by the plans' sensitivity,
+    ``E[G] C E[G]^T``: the campaign's equals it with C the restricted covariance of
+    :func:`uavsim.truth.start_prior` (x variance near 36 m^2), and is below the one with
+    ``Sigma_0`` (x variance 100 m^2) by more than 10%: about 11.6 m against 14 m."""
+    from uavsim.bounds.pcrlb import pcrlb_planned
+    from uavsim.campaign import load_trials, run_campaign, trial_key
+    from uavsim.truth import start_prior
+
+    m = mission(tmp_path, (291.0, 150.0), (0.0, 0.0), [100.0, 100.0, 1e-10, 1.0, 1.0, 1e-10], steps=3, trials=3)
+    s = run_campaign(m, "baseline", out=tmp_path / "c")
+    trials = load_trials(tmp_path / "c" / "trials", range(3), trial_key(m, "baseline"))
+    sens, truth, obs = (np.stack([getattr(trials[k], f) for k in range(3)]) for f in ("sensitivity", "truth",
+                                                                                       "observers"))
+    restricted = pcrlb_planned(sens, truth, obs, start_prior(m, np.random.default_rng(m.seed))[1], m.sensor).pos
+    whole = pcrlb_planned(sens, truth, obs, np.array([m.targets[0].cov0]), m.sensor).pos
+    assert s["pcrlb_start_acceptance"][0] == pytest.approx(0.5, abs=4 * 0.0079)
+    assert s["pcrlb_pos"] == pytest.approx(restricted.tolist(), rel=1e-12)
+    assert np.all(restricted < 0.9 * whole)

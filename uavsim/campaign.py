@@ -66,7 +66,7 @@ from .files import write_atomic
 from .guidance import Guidance
 from .mission import Mission, mission_errors
 from .sim import STAGES, Simulation
-from .truth import start_acceptance
+from .truth import bound_prior
 from .uav import BASELINE, MANOEUVRES, make_policy
 
 __all__ = [  # the public interface (docs/api.md renders each)
@@ -975,7 +975,8 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         for k, v in r.statuses.items():
             statuses[k] = statuses.get(k, 0) + v
     sensor = make_policy(planner, mission).sensor  # the fixed sensors carry their own
-    bound = accuracy_floor(mission, sensor or mission.sensor, results)
+    prior = bound_prior(mission)
+    bound = accuracy_floor(mission, sensor or mission.sensor, results, prior)
     return {
         "mission": str(mission.path), "planner": planner, "trials": len(results), "steps": mission.steps,
         "seed": mission.seed, "truth": mission.truth,
@@ -991,7 +992,7 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "pcrlb_pos_per_target": None if bound is None else bound.pos_per_target.tolist(),
         "time_avg_pcrlb": None if bound is None else float(bound.pos.mean()),
         "pcrlb_q2": None if bound is None else bound.q2,
-        **_bound_errors(mission, bound, err2),
+        **_bound_errors(mission, bound, err2, prior),
         "mean_trace": np.stack([r.trace for r in results]).mean(axis=0).T.tolist(),
         "nees": {"pos": metrics.consistency(np.stack([r.nees_pos for r in results]), len(metrics.POS),
                                             reference=_stack_reference(results)),
@@ -1037,19 +1038,17 @@ def track_loss_events(names: list[str], results: list[TrialResult]) -> list[int]
     return list(counts.values())
 
 
-def _bound_errors(mission: Mission, bound: Bound | None, err2: np.ndarray) -> dict:
+def _bound_errors(mission: Mission, bound: Bound | None, err2: np.ndarray, prior) -> dict:
     """What qualifies the PCRLB: its Monte-Carlo standard errors (jackknife over the
     trials) per step of ``pcrlb_pos`` and of ``time_avg_pcrlb``, None with one trial or
     no bound; each target's share of the prior its true start may come from
-    (:func:`.truth.start_acceptance`, 4000 draws from the mission's seed); and the check
-    of the bound against the RMSE, target by target (:func:`bound_margins`; named targets
-    only from :data:`BOUND_CHECK_TRIALS` trials on)."""
+    (:func:`.truth.bound_prior`); and the check of the bound against the RMSE, target by target
+    (:func:`bound_margins`; named targets only from :data:`BOUND_CHECK_TRIALS` trials on)."""
     se = None if bound is None else bound.standard_error()
     margin, margin_se = bound_margins(err2, bound) if se is not None else (None, None)
     return {"pcrlb_pos_se": None if se is None else se.tolist(),
             "time_avg_pcrlb_se": None if se is None else float(bound.standard_error(lambda p: p.mean(axis=(-2, -1)))),
-            "pcrlb_start_acceptance": None if bound is None else
-            start_acceptance(mission, np.random.default_rng(mission.seed)).tolist(),
+            "pcrlb_start_acceptance": None if bound is None else prior[0].tolist(),
             "pcrlb_margin_per_target": None if margin is None else margin.tolist(),
             "pcrlb_margin_se": None if margin is None else margin_se.tolist(),
             "pcrlb_beaten": None if margin is None or len(err2) < BOUND_CHECK_TRIALS else
@@ -1077,13 +1076,15 @@ def bound_margins(err2: np.ndarray, bound: Bound) -> tuple[np.ndarray, np.ndarra
     return margin, jackknife_se(loo)
 
 
-def accuracy_floor(mission: Mission, sensor, results: list[TrialResult]) -> Bound | None:
-    """The PCRLB of the campaign's trials (:func:`.bounds.pcrlb.pcrlb_planned`), or None for a
-    stochastic truth, whose bound is not built (see :mod:`.bounds.pcrlb`)."""
+def accuracy_floor(mission: Mission, sensor, results: list[TrialResult], prior=None) -> Bound | None:
+    """The PCRLB of the campaign's trials (:func:`.bounds.pcrlb.pcrlb_planned`) from the
+    prior the true starts are drawn from (``prior``, else :func:`.truth.bound_prior`), or None for
+    a stochastic truth, whose bound is not built (see :mod:`.bounds.pcrlb`)."""
     if mission.truth != "planned":
         return None
+    cov0 = (prior or bound_prior(mission))[1]
     return pcrlb_planned(np.stack([r.sensitivity for r in results]), np.stack([r.truth for r in results]),
-                         np.stack([r.observers for r in results]), np.array([t.cov0 for t in mission.targets]), sensor)
+                         np.stack([r.observers for r in results]), cov0, sensor)
 
 
 def with_baseline(summary: dict, base: dict) -> dict:

@@ -350,7 +350,8 @@ def _print_summary(s: dict) -> None:
                   "a defect of the bound or of its assumptions")
         if cut:
             print(f"  {'':<8}true starts are the prior less the starts that cannot stay out of the buildings "
-                  f"(kept: {', '.join(cut)}); the bound takes the whole prior, so it is not strict for those targets")
+                  f"(kept: {', '.join(cut)}); the bound takes a Gaussian with the kept starts' covariance, not "
+                  "the cut's shape, so it is not strict for those targets")
     if "baseline" in s:
         b = s["baseline"]
         print(f"  {'no info':<8}{b['time_avg_rmse']:>17.2f}{b['rmse'][-1]:>14.2f}   ratio {b['ratio']:.3f} "

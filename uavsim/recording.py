@@ -40,6 +40,7 @@ from .bounds.pcrlb import HORIZONTAL_POS, pcrlb_planned
 from .files import unwritable
 from .mission import Mission
 from .sim import StepInfo
+from .truth import bound_prior
 from .uav import make_policy
 
 PALETTE = np.array([[230, 60, 60], [60, 110, 230], [150, 70, 200], [40, 170, 80], [230, 150, 30], [30, 170, 190]])
@@ -116,7 +117,7 @@ class Recorder:
         self.est_path: list[np.ndarray] = []
         self.uav_path: list[np.ndarray] = []
         sensor = make_policy(planner, mission).sensor or mission.sensor  # the fixed sensors carry their own
-        self.sensor, self.cov0 = sensor, np.array([t.cov0 for t in mission.targets])
+        self.sensor, self.cov0 = sensor, None  # the bound's prior, made at its first step (planned truth)
         self.seen: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (sensitivity, truth, observers)
         self._static()
 
@@ -187,6 +188,8 @@ class Recorder:
         if info.t > 0 and info.sensitivity is not None:  # the bound of this trial alone (planned truth)
             self.seen.append((info.sensitivity, info.truth, info.observers))
             sens, truth, observers = map(np.array, zip(*self.seen))
+            if self.cov0 is None:
+                self.cov0 = bound_prior(self.m)[1]  # as the campaign's summary takes it
             cov = pcrlb_planned(sens, truth, observers, self.cov0, self.sensor).cov[-1]  # (M, 4, 4)
             var = np.trace(cov[:, HORIZONTAL_POS, HORIZONTAL_POS], axis1=1, axis2=2)  # (M,)
             rec.log("metrics/error/PCRLB", rr.Scalars(np.sqrt(var.mean())))

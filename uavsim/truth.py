@@ -39,6 +39,7 @@ from .declare import SettingError
 from .guidance import Guidance, Plan
 from .guidance.model import geometry
 from .mission import Mission
+from .targets import HORIZONTAL
 
 START_DRAWS = 1000  # prior draws per target to find a free-space true start
 PLAN_TRIES = 20  # clear draws tried per target until one has a guidance plan that avoids every obstacle
@@ -66,14 +67,44 @@ def clear_starts(mission: Mission, ground, draws: np.ndarray) -> np.ndarray:
     return free
 
 
-def start_acceptance(mission: Mission, rng: np.random.Generator, n: int = 4000) -> np.ndarray:
-    """(M,) the share of each target's prior that :func:`clear_starts` keeps, from ``n``
-    draws (binomial standard error ``sqrt(a (1 - a) / n)``).  Below 1 the true starts are
-    the prior restricted, which the PCRLB's prior ``Sigma_0`` does not know (a start that
-    clears the test but has no plan keeping every avoidance row, rarer, also restricts it;
-    those are events in the trial's log)."""
-    polys = geometry(mission.world, mission.dynamics, mission.guidance).polys
-    return clear_starts(mission, polys, prior_draws(mission, rng, n)).mean(axis=0)
+def start_prior(mission: Mission, rng: np.random.Generator, n: int = 4000) -> tuple[np.ndarray, np.ndarray]:
+    """The prior the true starts are drawn from: the share of each target's ``N(mu_0,
+    Sigma_0)`` that :func:`clear_starts` keeps and the covariance of what it keeps.
+
+    Parameters
+    ----------
+    mission : its targets' priors, world and guidance margins; rng : the draws' stream;
+    n : prior draws per target (the share's binomial standard error is ``sqrt(a (1 - a) / n)``).
+
+    Returns
+    -------
+    acceptance : (M,) the share kept; below 1 the true starts are the prior restricted.
+    cov : (M, 6, 6) ``Sigma_0`` with its ``[x, y, vx, vy]`` block (the one the bound uses)
+        the restricted prior's, ``Sigma_0 + (S_kept - S_all)`` with ``S`` the sample
+        covariances of the kept and of all n draws on that block: the control variate
+        ``S_all - Sigma_0`` removes the sampling error the two share, so a target whose
+        draws are all kept gets ``Sigma_0`` exactly (where the difference is not positive
+        definite, ``S_kept`` alone).  It leaves out the rarer restriction to starts with a
+        guidance plan (events in the trial's log).
+    """
+    draws = prior_draws(mission, rng, n)
+    kept = clear_starts(mission, geometry(mission.world, mission.dynamics, mission.guidance).polys, draws)
+    cov = np.array([t.cov0 for t in mission.targets], dtype=float)
+    for j in range(draws.shape[1]):  # one target at a time: M is a handful
+        x, keep = draws[:, j][:, HORIZONTAL], kept[:, j]
+        if keep.all() or keep.sum() < 2 * len(HORIZONTAL):
+            continue  # nothing restricted, or too few kept to say how (the start itself then fails)
+        s_kept = np.cov(x[keep], rowvar=False)
+        c = cov[j][np.ix_(HORIZONTAL, HORIZONTAL)] + s_kept - np.cov(x, rowvar=False)
+        cov[j][np.ix_(HORIZONTAL, HORIZONTAL)] = c if np.linalg.eigvalsh(0.5 * (c + c.T)).min() > 0.0 else s_kept
+    return kept.mean(axis=0), 0.5 * (cov + np.swapaxes(cov, 1, 2))
+
+
+def bound_prior(mission: Mission) -> tuple[np.ndarray, np.ndarray] | None:
+    """The prior of a planned truth's starts as the PCRLB takes it: :func:`start_prior`
+    from 4000 draws seeded by the mission's seed (the same in every summary and
+    recording), or None for a stochastic truth (no bound)."""
+    return start_prior(mission, np.random.default_rng(mission.seed)) if mission.truth == "planned" else None
 
 
 class Truth:

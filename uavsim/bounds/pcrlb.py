@@ -108,10 +108,20 @@ none for stochastic ones (its recursion would need the Jacobian of the truth's f
 bound is a Monte-Carlo estimate: :meth:`Bound.standard_error` is its jackknife standard
 error over the trials [Efron1981] (a few trials bias it upward: the averages sit inside an
 inverse).  It bounds the RMSE averaged over truths drawn from the prior, not each path's.
-And the simulator draws true starts from the prior restricted to starts that can stay
-out of every building (:func:`uavsim.truth.start_acceptance` says how much of it is
-kept), while ``J_0 = Sigma_0^-1`` is the unrestricted prior's: where the restriction
-bites, an estimator that knows it may beat the bound (campaign summaries report both).
+
+**Which prior.** The simulator draws true starts from ``N(mu_0, Sigma_0)`` restricted to
+the starts that can stay out of every building, so campaigns pass as ``cov0`` that
+restricted prior's covariance (:func:`uavsim.truth.start_prior`, from 4000 draws; it is
+``Sigma_0`` itself where nothing is cut), and the expectations over ``G`` and ``W`` already
+run over the restricted starts, since the trials draw from it.  With a cut prior this is
+the Van Trees bound of the Gaussian with the restricted prior's covariance, not a strict
+one: the Van Trees inequality needs a prior that vanishes on its support's edge, and a
+cut Gaussian does not (its own Fisher information is unbounded there).  Its error is one
+way: among priors with a given covariance the Gaussian has the least Fisher information,
+so an estimator that uses the cut's shape (the filter's ``keep_out`` does) may still beat
+it where much is cut; campaign summaries report each target's share kept and check the
+bound against the RMSE target by target.  At step 0 it is exact: the restricted prior's
+covariance is the error of its mean, the best estimate without scans.
 Under line of sight (``[sensor] line_of_sight``) a scan's information is that of its
 bearings where the truth is visible and 0 where it is hidden; what a miss says about
 where the target hides is left out (the detection's likelihood jumps at a shadow's edge,
