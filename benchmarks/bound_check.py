@@ -12,7 +12,9 @@ its jackknife s.e. (the bound recomputed from the trial files), the margin RMSE 
 its s.e. (the summary's ``pcrlb_margin_per_target`` / ``pcrlb_margin_se``), margin / s.e.,
 the share of the prior the true start may come from (``pcrlb_start_acceptance``) and whether
 the bound is beaten beyond 2 s.e. (``pcrlb_beaten``; not judged below 10 trials); per world:
-the campaign's RMSE and its ratio to the baseline's.  Totals: target-worlds, how many
+the campaign's RMSE and its ratio to the baseline's, the share of steps with the position
+NEES in its band (below, above), lost target-trials (final error over 3 no-information
+RMSEs) and tracks the filter re-seeded.  Totals: target-worlds, how many
 beaten, the smallest margin and margin / s.e.  Run it with OPENBLAS_NUM_THREADS=1.
 """
 
@@ -108,6 +110,10 @@ def world(args, seed: int, out: Path) -> dict:
             "baseline_ratio": s["baseline"]["ratio"], "time_avg_pcrlb": s["time_avg_pcrlb"],
             "time_avg_pcrlb_se": s["time_avg_pcrlb_se"], "pcrlb_q2": s["pcrlb_q2"],
             "campaign_wall_seconds": summary["wall_seconds"], "baseline_wall_seconds": base["wall_seconds"],
+            "nees_pos": {k: s["nees"]["pos"][k] for k in ("inside", "below", "above")},
+            "nees_pos_calibrated_inside": (s["nees"]["pos"].get("calibrated") or {}).get("inside"),
+            "credible_level_mean": float(np.mean(s["calibration"]["mean"])),
+            "lost": int(sum(s["baseline"]["lost_per_target"])), "reseeded": int(sum(s["track_loss_events"])),
             "targets": targets}
 
 
@@ -128,7 +134,9 @@ def show(seed: int, w: dict) -> None:
         print(f"{seed:6d}{t['name']:>7}{t['rmse']:9.2f}{t['bound']:9.2f}{t['bound_se']:7.2f}{t['margin']:10.2f}"
               f"{t['margin_se']:7.2f}{t['margin_over_se']:10.2f}{t['start_acceptance']:8.2f}  {flag}")
     print(f"{seed:6d}{'all':>7}{w['time_avg_rmse']:9.2f}{w['time_avg_pcrlb']:9.2f}{w['time_avg_pcrlb_se']:7.2f}"
-          f"  baseline {w['baseline_time_avg_rmse']:.2f} m, ratio {w['baseline_ratio']:.3f}; "
+          f"  baseline {w['baseline_time_avg_rmse']:.2f} m, ratio {w['baseline_ratio']:.3f}; NEES in band "
+          f"{w['nees_pos']['inside']:.0%} (below {w['nees_pos']['below']:.0%}), lost {w['lost']}, re-seeded "
+          f"{w['reseeded']}; "
           f"{w['campaign_wall_seconds']:.0f} + {w['baseline_wall_seconds']:.0f} s (0 if reused)", flush=True)
 
 
@@ -146,12 +154,17 @@ def totals(worlds: dict, trials: int) -> dict:
           f"{': ' + ', '.join(f'{s}/{n}' for s, n in below) if below else ''}")
     print(f"smallest margin {low[1]['margin']:.2f} m (world {low[0]} {low[1]['name']}); smallest margin / s.e. "
           f"{low_z[1]['margin_over_se']:.2f} (world {low_z[0]} {low_z[1]['name']})")
+    inside = [w["nees_pos"]["inside"] for w in worlds.values()]
+    lost = sum(w["lost"] for w in worlds.values())
+    print(f"NEES in band: {min(inside):.0%} to {max(inside):.0%} of steps; lost {lost} of "
+          f"{trials * len(rows)} target-trials")
     ratios = [w["baseline_ratio"] for w in worlds.values()]
     print(f"RMSE / baseline over the worlds: {min(ratios):.3f} to {max(ratios):.3f}, mean {np.mean(ratios):.3f}")
     return {"target_worlds": len(rows), "worlds": len(worlds), "beaten_beyond_2se": len(below), "judged": judged,
             "beaten": [f"{s}/{n}" for s, n in below], "min_margin": low[1]["margin"],
             "min_margin_at": f"{low[0]}/{low[1]['name']}", "min_margin_over_se": low_z[1]["margin_over_se"],
-            "min_margin_over_se_at": f"{low_z[0]}/{low_z[1]['name']}", "baseline_ratio_mean": float(np.mean(ratios))}
+            "min_margin_over_se_at": f"{low_z[0]}/{low_z[1]['name']}", "baseline_ratio_mean": float(np.mean(ratios)),
+            "lost": lost, "target_trials": trials * len(rows)}
 
 
 if __name__ == "__main__":

@@ -450,11 +450,15 @@ def tables_bound_check(data: dict | None) -> dict[str, str]:
                      f"{w['baseline_ratio']:.3f}", f"{min(t['margin'] for t in w['targets']):.2f}",
                      f"{low['margin_over_se']:.2f} ({low['name']})",
                      f"{min(t['start_acceptance'] for t in w['targets']):.2f}",
-                     str(sum(bool(t["below_2se"]) for t in w["targets"]))])
+                     str(sum(bool(t["below_2se"]) for t in w["targets"]))]
+                    + ([f"{w['nees_pos']['inside']:.0%} / {w['nees_pos']['below']:.0%} / {w['nees_pos']['above']:.0%}",
+                        f"{w['lost']}", f"{w['reseeded']}"] if "nees_pos" in w else []))
     t = f["totals"]
     return {"bound-check": md(["world seed", "RMSE (m)", "PCRLB (m) +- s.e.", "RMSE / no information",
                                "smallest target margin (m)", "smallest margin / s.e.", "least start acceptance",
-                               "targets beaten beyond 2 s.e."], rows)
+                               "targets beaten beyond 2 s.e."]
+                              + (["NEES in band / below / above", "lost target-trials", "re-seeded"]
+                                 if "nees_pos" in next(iter(f["worlds"].values()), {}) else []), rows)
             + f"\n\n{t['target_worlds']} target-worlds, {data['settings']['trials']} trials a world, time averages; "
               f"beaten beyond 2 s.e.: {t['beaten_beyond_2se']}. " + provenance(data)}
 
