@@ -110,7 +110,7 @@ def test_one_default_per_setting(tmp_path):
             assert same(getattr(obj, name), want) == [], (section, name)
             assert same(getattr(read, name), want) == [], (section, name)
     f = minimal.filter  # the derived defaults of a particle filter
-    assert (f.motion, f.plan_clusters, f.noise_scales, f.keep_out) == ("commit", 8, (0.003, 0.03, 0.3), True)
+    assert (f.motion, f.plan_clusters, f.noise_scales, f.keep_out) == ("commit", 16, (0.003, 0.03, 0.3), True)
     assert minimal.planner.name == "optimized"
     assert minimal.steps == 50 and minimal.trials == 10 and minimal.seed == 0 and minimal.truth == "planned"
     assert [s.key for s in dict(sections())["[[targets]]"]] == ["name", "position_m", "velocity_mps", "cov0_si",

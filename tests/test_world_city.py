@@ -122,4 +122,4 @@ def test_city_missions_carry_the_declared_budgets(suite):
     for g, m in suite:
         assert m.guidance.time_limit == g.settings.guidance.time_limit == 10.0
         assert m.guidance.replan_budget == 1.0 and m.guidance.horizon == 50
-        assert (m.filter.motion, m.filter.plan_clusters) == ("commit", 8)
+        assert (m.filter.motion, m.filter.plan_clusters) == ("commit", 16)

@@ -43,12 +43,12 @@ def test_generated_missions_carry_the_paper_numbers(suite):
         for a, b in ((m.dynamics, paper.dynamics), (m.sensor, paper.sensor)):
             assert {k: v for k, v in vars(a).items() if k != "q"} == {k: v for k, v in vars(b).items() if k != "q"}
         np.testing.assert_array_equal(m.dynamics.q, paper.dynamics.q)
-        # the filter's differences: each of 8 clusters of a particle cloud flies its own plan,
+        # the filter's differences: each of 16 clusters of a particle cloud flies its own plan,
         # made once (the paper re-plans from the mean every step, which lost targets on
         # generated worlds), lost tracks are detected and re-seeded, particles carry one of
         # three process-noise levels, and they keep out of the obstacles (docs/methods/filter.md)
         assert m.guidance == paper.guidance
-        assert m.filter == replace(paper.filter, motion="commit", plan_clusters=8, loss_nats=10.0,
+        assert m.filter == replace(paper.filter, motion="commit", plan_clusters=16, loss_nats=10.0,
                                    noise_scales=(0.003, 0.03, 0.3), keep_out=True)
         assert (m.uav.step, m.uav.n_theta, m.uav.n_r, m.steps) == (paper.uav.step, paper.uav.n_theta,
                                                                     paper.uav.n_r, paper.steps)

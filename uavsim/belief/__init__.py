@@ -82,7 +82,7 @@ class FilterConfig:
                               "particle cloud is split once into plan_clusters clusters, each planned once and "
                               "flown open loop, as a planned truth flies its plan (particle filters only)")
     plan_clusters: int = setting("plan_clusters", kind="integer", lo=1, hi=64,
-                                 derived="8 for motion = commit, 2 for kind = particle, else 1",
+                                 derived="16 for motion = commit, 2 for kind = particle, else 1",
                                  doc="plans per target: with motion = replan 1 from the mean or 2 one per half of the "
                                      "particle cloud; with motion = commit one per cluster")
     keep_out: bool = setting("keep_out", kind="boolean", derived="true for kind = particle, else false",
@@ -102,7 +102,7 @@ class FilterConfig:
             raise SettingError("motion", f"needs particles to cluster (kind = \"particle\"), got kind = "
                                          f"\"{self.kind}\"")
         if self.plan_clusters is None:
-            object.__setattr__(self, "plan_clusters", 8 if self.motion == "commit" else 2 if self.kind == "particle"
+            object.__setattr__(self, "plan_clusters", 16 if self.motion == "commit" else 2 if self.kind == "particle"
                                else 1)
         if self.motion == "replan" and self.plan_clusters > 2:
             raise SettingError("plan_clusters", f"re-planning every step splits a cloud in at most 2, got "
