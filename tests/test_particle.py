@@ -10,8 +10,10 @@ from uavsim.belief.gaussian import GaussianBelief
 from uavsim.belief.particle import (
     ParticleBelief,
     ParticleFilter,
+    cluster_weights,
     clusters,
     halves,
+    label_mass,
     restricted_draws,
     systematic_indices,
     weighted_moments,
@@ -270,6 +272,16 @@ def test_clusters_find_separated_clouds_and_are_deterministic():
     np.testing.assert_array_equal(label, clusters(x[order][None], w[None], 4)[0])
     six = clusters(x[order][None], w[None], 6)[0]
     assert all(len(set(cloud[order][six == k].tolist())) == 1 for k in np.unique(six))
+
+
+def test_label_mass_is_each_clusters_weight():
+    """By hand: weights 0.1 0.2 0.3 0.4 labelled 0 1 0 2 (k = 4) hold 0.4, 0.2, 0.4 and 0
+    (an empty cluster); a second cloud labelled all 3 holds 1 there.  The same as the mass of
+    :func:`cluster_weights`, row by row."""
+    w = np.array([[0.1, 0.2, 0.3, 0.4], [0.25, 0.25, 0.25, 0.25]])
+    lab = np.array([[0, 1, 0, 2], [3, 3, 3, 3]])
+    np.testing.assert_allclose(label_mass(w, lab, 4), [[0.4, 0.2, 0.4, 0.0], [0.0, 0.0, 0.0, 1.0]], atol=1e-15)
+    np.testing.assert_allclose(label_mass(w, lab, 4), cluster_weights(w, lab, 4)[1], atol=1e-15)
 
 
 def test_committed_prediction_is_the_cluster_force_plus_the_gain_on_the_offset():

@@ -307,6 +307,13 @@ def cluster_weights(weights: np.ndarray, label: np.ndarray, k: int) -> tuple[np.
     return np.where(mass[..., None] > 0, parts / safe, weights[:, None, :]), mass
 
 
+def label_mass(weights: np.ndarray, label: np.ndarray, k: int) -> np.ndarray:
+    """``(M, k)`` each cluster's share of the weights ``(M, N)`` under ``label (M, N)``: the
+    ``mass`` of :func:`cluster_weights` without its ``(M, k, N)`` parts (one pass)."""
+    rows = np.arange(len(label))[:, None] * k
+    return np.bincount((label + rows).ravel(), weights.ravel(), minlength=len(label) * k).reshape(len(label), k)
+
+
 def part_moments(particles: np.ndarray, parts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Weighted means ``(M, k, 6)`` and covariances ``(M, k, 6, 6)`` of the clouds
     ``particles (M, N, 6)`` under each of the weights ``parts (M, k, N)``."""
@@ -462,7 +469,7 @@ class ParticleBelief:
 
     def cluster_mass(self, k: int) -> np.ndarray:
         """``(M, k)`` the weight each cluster of :meth:`commit` holds now."""
-        return cluster_weights(self.pf.weights, self.pf.label, k)[1]
+        return label_mass(self.pf.weights, self.pf.label, k)
 
     def predict_committed(self, dynamics: Dynamics, forces: np.ndarray, gains: np.ndarray) -> None:
         """Eq. (9a) with committed plans: particle n of cluster c moves by ``forces[:, c]
