@@ -114,6 +114,12 @@ BAD_MISSIONS = [
     (sub("plan_clusters = 1", "plan_clusters = 65").replace('motion = "replan"', 'motion = "commit"'),
      "filter.plan_clusters", "must be in [1, 64], got 65"),
     (sub('motion = "replan"', 'motion = "drift"'), "filter.motion", "must be one of replan, commit"),
+    (sub("noise_scales = [1.0]", "noise_scales = [0.1, 1.0]\nnoise_shares = [1.0]"), "filter.noise_shares",
+     "needs one chance per noise_scales value (2), got 1"),
+    (sub("noise_scales = [1.0]", "noise_scales = [0.1, 1.0]\nnoise_shares = [0.5, 0.4]"), "filter.noise_shares",
+     "the chances must sum to 1, got 0.9"),
+    (sub("noise_scales = [1.0]", 'noise_scales = [1.0]\nnoise_space = "start"'), "filter.noise_space",
+     'committed plans (motion = "commit"), got motion = "replan"'),
     (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "plkf"')
      .replace('motion = "replan"', 'motion = "commit"')
      .replace("clutter_rate = 0.5", "clutter_rate = 0.0"), "filter.motion", "needs particles to cluster"),

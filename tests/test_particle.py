@@ -401,6 +401,107 @@ def test_noise_levels_scale_each_particles_noise_and_follow_resampling():
     assert abs(np.mean(pf.mode == 0) - 0.5) < 0.02
 
 
+def test_one_noise_scale_multiplies_every_particles_q():
+    """``noise_scales = [0.25]``: every particle's noise has standard deviation 0.5 (it used
+    to be ignored, every particle moving by Q; 20 000 particles, s.e. of a standard
+    deviation under 0.4%, tolerance 4%); ``[1.0]`` (the paper's) draws exactly what no
+    scales draw."""
+    n = 20_000
+    pf = ParticleFilter.from_priors(np.random.default_rng(5), np.zeros((1, 6)), np.eye(6)[None], n, np.array([0.25]))
+    before = pf.particles.copy()
+    pf.predict(np.random.default_rng(6), np.eye(6), np.zeros((6, 3)), np.eye(6), np.zeros((1, 3)))
+    np.testing.assert_allclose((pf.particles - before).std(), 0.5, rtol=0.04)
+    moved = []
+    for scales in (np.array([1.0]), None):
+        pf = ParticleFilter.from_priors(np.random.default_rng(5), np.zeros((1, 6)), np.eye(6)[None], 50, scales)
+        pf.predict(np.random.default_rng(6), np.eye(6), np.zeros((6, 3)), np.eye(6), np.zeros((1, 3)))
+        moved.append(pf.particles)
+    np.testing.assert_array_equal(*moved)
+
+
+def test_noise_shares_set_each_levels_chance():
+    """``noise_shares = (0.5, 0.4, 0.1)``: 20 000 particles draw levels 0, 1, 2 at those
+    chances (binomial s.e. at most 0.0035, tolerance 0.02) at the start and when they
+    switch; equal shares draw exactly what no shares draw (the integers of the paper's
+    filter, so runs with alike levels stay as they were)."""
+    n = 20_000
+    scales, shares = np.array([0.003, 0.03, 0.3]), np.array([0.5, 0.4, 0.1])
+    pf = ParticleFilter.from_priors(np.random.default_rng(5), np.zeros((1, 6)), np.eye(6)[None], n, scales, 1.0,
+                                    shares=shares)
+    np.testing.assert_allclose(np.bincount(pf.mode[0], minlength=3) / n, shares, atol=0.02)
+    pf.predict(np.random.default_rng(6), np.eye(6), np.zeros((6, 3)), np.eye(6), np.zeros((1, 3)))
+    np.testing.assert_allclose(np.bincount(pf.mode[0], minlength=3) / n, shares, atol=0.02)
+    modes = [ParticleFilter.from_priors(np.random.default_rng(5), np.zeros((1, 6)), np.eye(6)[None], 50, scales,
+                                        shares=sh).mode for sh in (np.full(3, 1 / 3), None)]
+    np.testing.assert_array_equal(*modes)
+
+
+def _committed_belief(noise_space: str, scales: np.ndarray, n: int = 20_000) -> ParticleBelief:
+    """One target's cloud, committed in one cluster, with noise levels ``scales``."""
+    cov = np.diag([400.0, 100.0, 1e-10, 4.0, 9.0, 1e-10])
+    b = ParticleBelief(np.random.default_rng(3), np.zeros((1, 6)), cov[None], n, 0.5, 0.0, ("T1",),
+                       noise_scales=scales, noise_space=noise_space)
+    b.commit(1)
+    return b
+
+
+def test_start_noise_moves_the_start_and_the_state_by_the_plans_response():
+    """``noise_space = "start"`` with one level 0.25 and the default Q = diag(30, 30, ~0, 3, 3, ~0): each
+    particle's start offset moves by noise of variance 0.25 x Q's [x, y, vx, vy] block
+    (20 000 particles: relative s.e. of a variance 1%, tolerance 5%) and its state by the
+    committed plan's response: after one step with zero forces and gains the state is A
+    times (start + that noise), i.e. ``G_1 = A E``; after a second step with gains K it is
+    ``G_2 = A G_1 + B K`` that maps the second step's start noise into the state.  With
+    ``G = 0`` (a plan converged on its goal point) the start moves and the state does not."""
+    dyn = Dynamics()
+    b = _committed_belief("start", np.array([0.25]))
+    x0, d0 = b.pf.particles.copy(), b.pf.offset.copy()
+    b.predict_committed(dyn, np.zeros((1, 1, 3)), np.zeros((1, 1, 3, 4)))
+    step = b.pf.offset - d0
+    np.testing.assert_allclose(step[0].var(axis=0), 0.25 * np.array([30.0, 30.0, 3.0, 3.0]), rtol=0.05)
+    moved = x0.copy()
+    moved[..., [0, 1, 3, 4]] += step
+    np.testing.assert_allclose(b.pf.particles, moved @ dyn.a.T, atol=1e-9)
+    gains = np.random.default_rng(4).normal(size=(1, 1, 3, 4)) * 100.0
+    g1 = b.sens.copy()
+    np.testing.assert_allclose(g1[0, 0], dyn.a[:, [0, 1, 3, 4]], atol=1e-15)
+    x1, d1 = b.pf.particles.copy(), b.pf.offset.copy()
+    b.predict_committed(dyn, np.zeros((1, 1, 3)), gains)
+    own = np.einsum("ij,nj->ni", gains[0, 0], b.pf.offset[0])
+    want = (x1[0] + (b.pf.offset[0] - d1[0]) @ g1[0, 0].T) @ dyn.a.T + own @ dyn.b.T
+    np.testing.assert_allclose(b.pf.particles[0], want, atol=1e-9)
+    np.testing.assert_allclose(b.sens[0, 0], dyn.a @ g1[0, 0] + dyn.b @ gains[0, 0], atol=1e-12)
+    b.sens[:] = 0.0
+    x2, d2 = b.pf.particles.copy(), b.pf.offset.copy()
+    b.predict_committed(Dynamics(friction=0.0), np.zeros((1, 1, 3)),
+                        np.zeros((1, 1, 3, 4)))
+    assert not np.allclose(b.pf.offset, d2)
+    np.testing.assert_allclose(b.pf.particles[0], x2[0] @ Dynamics(friction=0.0).a.T, atol=1e-9)
+
+
+def test_split_noise_sends_the_highest_level_to_the_state_and_the_others_to_the_start():
+    """``noise_space = "split"``, levels (0.01, 1): the level-1 particles' starts stay and
+    their states take Q's noise (variance 30 in x: 10 000 particles, tolerance 5%); the
+    level-0.01 particles' starts move by 0.01 Q and their states by the plan's response
+    only (here ``G_0 = E``, so state less start is unchanged); ``"state"`` moves no start."""
+    dyn = Dynamics(friction=0.0)
+    b = _committed_belief("split", np.array([0.01, 1.0]))
+    top = b.pf.mode[0] == 1
+    x0, d0 = b.pf.particles.copy(), b.pf.offset.copy()
+    b.predict_committed(dyn, np.zeros((1, 1, 3)), np.zeros((1, 1, 3, 4)))
+    dd = (b.pf.offset - d0)[0]
+    assert not dd[top].any()
+    np.testing.assert_allclose(dd[~top].var(axis=0), 0.01 * np.array([30.0, 30.0, 3.0, 3.0]), rtol=0.05)
+    drift = (b.pf.particles - x0 @ dyn.a.T)[0]
+    np.testing.assert_allclose(drift[top, 0].var(), 30.0, rtol=0.05)
+    np.testing.assert_allclose(drift[~top][:, [0, 1, 3, 4]], dd[~top] @ dyn.a[np.ix_([0, 1, 3, 4], [0, 1, 3, 4])].T,
+                               atol=1e-9)
+    b = _committed_belief("state", np.array([0.01, 1.0]))
+    d0 = b.pf.offset.copy()
+    b.predict_committed(dyn, np.zeros((1, 1, 3)), np.zeros((1, 1, 3, 4)))
+    np.testing.assert_array_equal(b.pf.offset, d0)
+
+
 def test_a_draw_from_the_belief_picks_particles_by_weight():
     """Weights 0.5, 0.3, 0.2, 0 on four particles (and one target of weight 1 on its
     last): 40 000 draws pick each at its weight within 4 binomial s.e. (at most 0.0025),

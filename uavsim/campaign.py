@@ -350,6 +350,10 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
         del data["filter"]["loss_nats"], data["filter"]["reseed_share"]
     if len(data["filter"]["noise_scales"]) == 1 and data["filter"]["noise_scales"][0] == 1.0:  # one Q: as before
         del data["filter"]["noise_scales"], data["filter"]["scale_switch"]
+    if len(set(data["filter"]["noise_shares"])) == 1:  # levels drawn alike: as before the setting existed
+        del data["filter"]["noise_shares"]
+    if data["filter"]["noise_space"] == "state":  # likewise
+        del data["filter"]["noise_space"]
     if not data["filter"]["keep_out"]:  # particles that may cross obstacles: as before the setting existed
         del data["filter"]["keep_out"]
     if data["filter"]["motion"] == "replan":  # re-planned every step: as before the setting existed

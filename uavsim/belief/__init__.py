@@ -28,9 +28,11 @@ from .particle import ParticleBelief
 
 KINDS = ("particle", *FILTERS)
 MOTIONS = ("replan", "commit")  # FilterConfig.motion
+NOISE_SPACES = ("state", "start", "split")  # FilterConfig.noise_space
 # process-noise levels by motion (measured on the towns: docs/results/towns.md, committed plans): a
 # particle flying a committed plan with its gains rarely misses the truth's force; the lowest level fits those
 REPLAN_SCALES, COMMIT_SCALES = (0.03, 0.3), (0.003, 0.03, 0.3)
+COMMIT_SHARES = (0.5, 0.4, 0.1)  # of COMMIT_SCALES: the highest, in the state with noise_space = "split", is rare
 
 
 @dataclass(frozen=True)
@@ -74,9 +76,18 @@ class FilterConfig:
                                        derived="[0.003, 0.03, 0.3] for motion = commit, else [0.03, 0.3]",
                                        doc="multipliers of the process noise Q a particle may carry (jump-Markov "
                                            "[McGinnity2000]: the bearings weigh which fits); one value: every "
-                                           "particle uses Q")
+                                           "particle uses that multiple of Q")
     scale_switch: float = setting("scale_switch", 0.02, lo=0, hi=1,
                                   doc="per step, the chance a particle redraws its process-noise multiplier")
+    noise_shares: tuple[float, ...] = setting("noise_shares", kind="array", shape=(None,), lo=0, hi=1,
+                                       derived="[0.5, 0.4, 0.1] for motion = commit, else alike",
+                                       doc="each noise level's chance when a particle draws one (one per "
+                                           "noise_scales value, summing to 1)")
+    noise_space: str = setting("noise_space", choices=NOISE_SPACES, derived="split for motion = commit, else state",
+                               doc="where a particle's process noise goes: state (Eq. 9a); start: its start, the "
+                                   "state moving by the committed plan's response, so the noise contracts as the "
+                                   "plans do; split: the highest level to the state, the others to the start "
+                                   "(motion = commit)")
     motion: str = setting("motion", choices=MOTIONS, derived="commit for kind = particle, else replan",
                           doc="replan: every step re-plans each target from its belief (Eq. 8c); commit: the "
                               "particle cloud is split once into plan_clusters clusters, each planned once and "
@@ -98,6 +109,21 @@ class FilterConfig:
             object.__setattr__(self, "noise_scales", COMMIT_SCALES if self.motion == "commit" else REPLAN_SCALES)
         # a tuple, so that settings compare (an array field would make == ambiguous)
         object.__setattr__(self, "noise_scales", tuple(float(v) for v in np.atleast_1d(self.noise_scales)))
+        if self.noise_shares is None:
+            n = len(self.noise_scales)
+            shares = COMMIT_SHARES if self.motion == "commit" and self.noise_scales == COMMIT_SCALES else [1.0 / n] * n
+            object.__setattr__(self, "noise_shares", shares)
+        object.__setattr__(self, "noise_shares", tuple(float(v) for v in np.atleast_1d(self.noise_shares)))
+        if len(self.noise_shares) != len(self.noise_scales):
+            raise SettingError("noise_shares", f"needs one chance per noise_scales value ({len(self.noise_scales)}), "
+                                               f"got {len(self.noise_shares)}")
+        if abs(sum(self.noise_shares) - 1.0) > 1e-6:
+            raise SettingError("noise_shares", f"the chances must sum to 1, got {sum(self.noise_shares):.6g}")
+        if self.noise_space is None:
+            object.__setattr__(self, "noise_space", "split" if self.motion == "commit" else "state")
+        if self.noise_space != "state" and self.motion != "commit":
+            raise SettingError("noise_space", f"moves the particles' starts along committed plans (motion = "
+                                              f"\"commit\"), got motion = \"{self.motion}\"")
         if self.motion == "commit" and self.kind != "particle":
             raise SettingError("motion", f"needs particles to cluster (kind = \"particle\"), got kind = "
                                          f"\"{self.kind}\"")
@@ -177,5 +203,6 @@ def make_belief(cfg: FilterConfig, rng: np.random.Generator, means: np.ndarray, 
     states giving ``(M, K)`` bool: :func:`.particle.restricted_draws`)."""
     if cfg.kind == "particle":
         return ParticleBelief(rng, means, covs, cfg.particles, cfg.resample_threshold, cfg.roughening, names,
-                              cfg.loss_nats, cfg.noise_scales, cfg.scale_switch, clear if cfg.keep_out else None)
+                              cfg.loss_nats, cfg.noise_scales, cfg.scale_switch, clear if cfg.keep_out else None,
+                              cfg.noise_shares, cfg.noise_space)
     return GaussianBelief(cfg.kind, means, covs, speed_max, names)

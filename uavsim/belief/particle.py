@@ -8,12 +8,21 @@
   (:func:`halves`) and each half moves by the plan from its own mean (``[filter]
   plan_clusters = 2``, see :mod:`uavsim.sim`).  With ``[filter] noise_scales`` of two or
   more values each particle carries one of them and its noise is ``N(0, scale Q)``; a
-  particle redraws its scale uniformly with probability ``scale_switch`` per step (a
-  jump-Markov model [McGinnity2000]), and the weights keep the scales the bearings support.
+  particle redraws its scale with probability ``scale_switch`` per step, each scale with
+  its chance in ``noise_shares`` (a jump-Markov model [McGinnity2000]), and the weights
+  keep the scales the bearings support.
   With ``[filter] motion = "commit"`` the cloud is instead split once into K clusters
   (:func:`clusters`), each cluster's plan is made once and flown open loop, and a particle
   moves by its cluster's force plus the plan's response to its own start's offset from the
   cluster's mean (:meth:`ParticleBelief.predict_committed`; see :mod:`uavsim.sim`).
+  ``[filter] noise_space`` says where such a particle's noise goes: ``"state"`` adds it to
+  the state (Eq. 9a); ``"start"`` adds its ``[x, y, vx, vy]`` part to the particle's start
+  offset ``d`` and moves the state by the committed plan's response ``G_t (d_new - d)``
+  (``G_t = d x_t / d x_0``, :attr:`ParticleBelief.sens`), so the particle flies the plan
+  of its new start and the noise contracts as the plans do (a planned truth's spread
+  shrinks to its goal point by the horizon's end); ``"split"`` sends the highest level to
+  the state, where it lets particles leave the plans' affine model (a target on another
+  route than its cluster's plan), and the others to the start.
 * Update (Eq. 9b) with the measurement-set likelihood Eq. (10).  For uniform clutter
   ``p(phi) = 1 / (2 pi)`` and ``Psi(n; L) = e^-L L^n / n!`` the factorials cancel:
 
@@ -65,13 +74,17 @@ class ParticleFilter:
     """
 
     def __init__(self, particles: np.ndarray, logw: np.ndarray, scales: np.ndarray | None = None,
-                 switch: float = 0.0, rng: np.random.Generator | None = None):
+                 switch: float = 0.0, rng: np.random.Generator | None = None, shares: np.ndarray | None = None):
         self.particles, self.logw = particles, logw
         self._work: dict = {}  # scratch buffers
-        # jump-Markov process noise: each particle's Q is scales[mode] Q (None: Q for all)
+        # jump-Markov process noise: each particle's Q is scales[mode] Q (None: unit Q for all)
         self.levels = None if scales is None or len(scales) < 2 else np.sqrt(np.asarray(scales, float))
+        self.unit = 1.0 if scales is None or len(scales) != 1 else float(np.sqrt(scales[0]))  # one scale: every Q
         self.switch = switch
-        self.mode = None if self.levels is None else rng.integers(len(self.levels), size=particles.shape[:2])
+        # a level's chance when a particle draws one (None: all alike); cumulative, for inverse-CDF draws
+        self.cum = (None if shares is None or self.levels is None or np.ptp(shares) == 0
+                    else np.cumsum(shares)[:-1])
+        self.mode = None if self.levels is None else self.draw_levels(rng, particles.shape[:2])
         self.applied = np.zeros((*particles.shape[:2], 2))  # (M, N) the ground force each particle moved by last
         self.label = np.zeros(particles.shape[:2], np.intp)  # (M, N) each particle's cluster (motion = "commit")
         self.offset = np.zeros((*particles.shape[:2], 4))  # (M, N, 4) its start less its cluster's mean, HORIZONTAL
@@ -92,14 +105,15 @@ class ParticleFilter:
 
     @classmethod
     def from_priors(cls, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int,
-                    scales: np.ndarray | None = None, switch: float = 0.0, particles: np.ndarray | None = None
-                    ) -> "ParticleFilter":
+                    scales: np.ndarray | None = None, switch: float = 0.0, particles: np.ndarray | None = None,
+                    shares: np.ndarray | None = None) -> "ParticleFilter":
         """Sample N particles per target from ``N(mean (M, 6), cov (M, 6, 6))``, or start
         from ``particles (M, N, 6)`` drawn already (:func:`restricted_draws`); ``scales``,
-        ``switch``: see :meth:`predict`."""
+        ``switch``: see :meth:`predict`; ``shares``: each level's chance when a particle
+        draws one (None: all alike)."""
         if particles is None:
             particles = restricted_draws(rng, means, covs, n)[0]
-        return cls(particles, np.full(particles.shape[:2], -np.log(n)), scales, switch, rng)
+        return cls(particles, np.full(particles.shape[:2], -np.log(n)), scales, switch, rng, shares)
 
     def predict(self, rng: np.random.Generator, a: np.ndarray, b: np.ndarray, q_chol: np.ndarray,
                 controls: np.ndarray, split: tuple[np.ndarray, np.ndarray] | None = None) -> None:
@@ -107,7 +121,8 @@ class ParticleFilter:
         particle; ``split = (mask (M, N) bool, other (M, 3))``: the masked particles take
         ``other`` instead.  With noise
         levels (``scales`` of :meth:`from_priors`, two or more) particle n's ``nu`` is
-        ``sqrt(scales[mode_n]) L z`` and ``mode`` jumps first (module docstring).
+        ``sqrt(scales[mode_n]) L z`` and ``mode`` jumps first (module docstring); one scale
+        multiplies every particle's Q.
 
         The noise goes through two buffers kept between calls: fresh temporaries of this
         size cost page faults on every step (the allocator returns them to the system)."""
@@ -115,16 +130,14 @@ class ParticleFilter:
         own = controls if controls.ndim == 3 else None  # (M, N, 3): added after the noise
         if own is not None:
             controls = np.zeros((len(x), own.shape[-1]))
-        noise = rng.standard_normal(out=_scratch(self._work, "z", x.shape))
-        if self.levels is not None:
-            jump = rng.random(self.mode.shape) < self.switch
-            self.mode[jump] = rng.integers(len(self.levels), size=int(jump.sum()))
-            noise *= self.levels[self.mode][..., None]
-        if np.any(np.tril(q_chol, -1)):
+        if q_chol is None:  # no process noise here (a committed cloud's is in its starts)
+            _affine_rows(x, None, controls @ b.T)
+        elif np.any(np.tril(q_chol, -1)):
+            noise = self.noise(rng, _scratch(self._work, "z", x.shape))
             x += np.matmul(noise, q_chol.T, out=_scratch(self._work, "noise", x.shape))
             _affine_rows(x, None, controls @ b.T)
         else:  # a diagonal Q (every mission file's): L z is a scaling, done with B u in one wide pass
-            x += _affine_rows(noise, np.diagonal(q_chol), controls @ b.T)
+            x += _affine_rows(self.noise(rng, _scratch(self._work, "z", x.shape)), np.diagonal(q_chol), controls @ b.T)
         self.applied[:] = controls[:, None, :2]
         if own is not None:
             x += own @ b.T
@@ -134,6 +147,24 @@ class ParticleFilter:
             x += mask[..., None] * ((other - controls) @ b.T)[:, None, :]
             np.copyto(self.applied, other[:, None, :2], where=mask[..., None])
         self.particles = x
+
+    def noise(self, rng: np.random.Generator, out: np.ndarray) -> np.ndarray:
+        """``out (M, N, d)`` filled with standard normals, each particle's scaled by the square
+        root of its noise level (which jumps first, module docstring) or of the one scale."""
+        noise = rng.standard_normal(out=out)
+        if self.levels is not None:
+            jump = rng.random(self.mode.shape) < self.switch
+            self.mode[jump] = self.draw_levels(rng, int(jump.sum()))
+            noise *= self.levels[self.mode][..., None]
+        elif self.unit != 1.0:
+            noise *= self.unit
+        return noise
+
+    def draw_levels(self, rng: np.random.Generator, size) -> np.ndarray:
+        """Noise levels drawn with the chances ``shares`` (all alike when None)."""
+        if self.cum is None:
+            return rng.integers(len(self.levels), size=size)
+        return np.searchsorted(self.cum, rng.random(size), side="right")
 
     def update(self, loglik: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Eq. (9b) with ``loglik (M, N)``.  Returns ``(bad, evidence)``: (M,) bool, the
@@ -405,11 +436,13 @@ class ParticleBelief:
 
     def __init__(self, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int,
                  resample_threshold: float, roughening: float, names: tuple[str, ...], loss_nats: float = 0.0,
-                 noise_scales: np.ndarray | None = None, scale_switch: float = 0.0, clear=None):
-        self.rng, self.names = rng, names
+                 noise_scales: np.ndarray | None = None, scale_switch: float = 0.0, clear=None,
+                 noise_shares: np.ndarray | None = None, noise_space: str = "state"):
+        self.rng, self.names, self.noise_space = rng, names, noise_space
+        self.sens = None  # (M, k, 6, 4) each committed cluster's G_t = d x_t / d offset (motion = "commit")
         self.threshold, self.roughening, self.loss_nats = resample_threshold, roughening, loss_nats
         particles, unrestricted = restricted_draws(rng, means, covs, n, clear)
-        self.pf = ParticleFilter.from_priors(rng, means, covs, n, noise_scales, scale_switch, particles)
+        self.pf = ParticleFilter.from_priors(rng, means, covs, n, noise_scales, scale_switch, particles, noise_shares)
         self.notes = [f"{names[j]}: {k} of {n} prior particles not restricted to the starts a target may take "
                       f"(too few clear draws in {PRIOR_ROUNDS} rounds)" for j, k in enumerate(unrestricted) if k]
         self.cusum = np.zeros(len(means))  # (M,) nats of evidence that the cloud has lost its target
@@ -465,6 +498,8 @@ class ParticleBelief:
         means, covs = part_moments(self.pf.particles, parts)
         own = np.take_along_axis(means, self.pf.label[..., None], axis=1)  # (M, N, 6)
         self.pf.offset = (self.pf.particles - own)[..., HORIZONTAL]
+        self.sens = np.zeros((*mass.shape, 6, 4))
+        self.sens[..., HORIZONTAL, np.arange(4)] = 1.0
         return means, covs, mass
 
     def cluster_mass(self, k: int) -> np.ndarray:
@@ -475,11 +510,33 @@ class ParticleBelief:
         """Eq. (9a) with committed plans: particle n of cluster c moves by ``forces[:, c]
         (M, k, 3) + gains[:, c] (M, k, 3, 4) @ offset_n``, its cluster plan's force and that
         plan's response to a start moved by the particle's offset
-        (:meth:`uavsim.guidance.Guidance.gains`)."""
+        (:meth:`uavsim.guidance.Guidance.gains`).  The process noise goes where
+        ``noise_space`` says (module docstring): to the state, or the ``[x, y, vx, vy]`` part of
+        it to the start offset with the state moved by :attr:`sens` times it, or split by level.
+        :attr:`sens` then steps on, ``G_{t+1} = A G_t + B K_t``."""
         lab = self.pf.label
+        q_chol, state_noise = dynamics.q_chol, None
+        if self.noise_space != "state":
+            nu = self.pf.noise(self.rng, np.empty(self.pf.particles.shape)) @ q_chol.T  # (M, N, 6) each level's
+            in_state = np.zeros(lab.shape, bool)
+            if self.noise_space == "split" and self.pf.levels is not None:
+                in_state = self.pf.mode == len(self.pf.levels) - 1
+                state_noise = np.where(in_state[..., None], nu, 0.0)
+            self._move_starts(np.where(in_state[..., None], 0.0, nu[..., HORIZONTAL]))
+            q_chol = None
         own = np.take_along_axis(forces, lab[..., None], axis=1)  # (M, N, 3)
         own += np.einsum("mnij,mnj->mni", np.take_along_axis(gains, lab[..., None, None], axis=1), self.pf.offset)
-        self.pf.predict(self.rng, dynamics.a, dynamics.b, dynamics.q_chol, own)
+        self.pf.predict(self.rng, dynamics.a, dynamics.b, q_chol, own)
+        if state_noise is not None:
+            self.pf.particles += state_noise
+        self.sens = dynamics.a @ self.sens + dynamics.b @ gains
+
+    def _move_starts(self, step: np.ndarray) -> None:
+        """Each particle's start offset moves by ``step (M, N, 4)`` and its state by its
+        cluster's sensitivity times that: it then flies the committed plan from its new start."""
+        sens = np.take_along_axis(self.sens, self.pf.label[..., None, None], axis=1)
+        self.pf.particles += np.einsum("mnij,mnj->mni", sens, step)
+        self.pf.offset += step
 
     def halves(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """The cloud in two (:func:`halves`): ``mask (M, N)`` (True: the second half), each
@@ -544,8 +601,8 @@ class ParticleBelief:
         self.pf.offset[rows] = np.concatenate([np.take_along_axis(self.pf.offset[rows], idx[..., None], axis=1),
                                                np.zeros((*fresh.shape[:2], 4))], axis=1)
         if self.pf.mode is not None:
-            self.pf.mode[rows] = np.concatenate([np.take_along_axis(self.pf.mode[rows], idx, axis=1), self.rng.integers(
-                len(self.pf.levels), size=fresh.shape[:2])], axis=1)
+            self.pf.mode[rows] = np.concatenate([np.take_along_axis(self.pf.mode[rows], idx, axis=1),
+                                              self.pf.draw_levels(self.rng, fresh.shape[:2])], axis=1)
         logw = self.pf.logw.copy()
         logw[rows] = -np.log(n)
         self.pf.logw = logw
