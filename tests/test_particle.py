@@ -483,7 +483,9 @@ def test_split_noise_sends_the_highest_level_to_the_state_and_the_others_to_the_
     """``noise_space = "split"``, levels (0.01, 1): the level-1 particles' starts stay and
     their states take Q's noise (variance 30 in x: 10 000 particles, tolerance 5%); the
     level-0.01 particles' starts move by 0.01 Q and their states by the plan's response
-    only (here ``G_0 = E``, so state less start is unchanged); ``"state"`` moves no start."""
+    only (here ``G_0 = E``, so state less start is unchanged).  ``"state"`` moves no start;
+    ``"split"`` keeps the highest level in the state wherever it is listed, and the only
+    level of one."""
     dyn = Dynamics(friction=0.0)
     b = _committed_belief("split", np.array([0.01, 1.0]))
     top = b.pf.mode[0] == 1
@@ -496,10 +498,13 @@ def test_split_noise_sends_the_highest_level_to_the_state_and_the_others_to_the_
     np.testing.assert_allclose(drift[top, 0].var(), 30.0, rtol=0.05)
     np.testing.assert_allclose(drift[~top][:, [0, 1, 3, 4]], dd[~top] @ dyn.a[np.ix_([0, 1, 3, 4], [0, 1, 3, 4])].T,
                                atol=1e-9)
-    b = _committed_belief("state", np.array([0.01, 1.0]))
-    d0 = b.pf.offset.copy()
-    b.predict_committed(dyn, np.zeros((1, 1, 3)), np.zeros((1, 1, 3, 4)))
-    np.testing.assert_array_equal(b.pf.offset, d0)
+    for space, scales in (("state", [0.01, 1.0]), ("split", [1.0, 0.01]), ("split", [0.5])):
+        b = _committed_belief(space, np.array(scales), 200)
+        top = b.pf.mode[0] == 0 if len(scales) > 1 else np.ones(200, bool)
+        d0 = b.pf.offset.copy()
+        b.predict_committed(dyn, np.zeros((1, 1, 3)), np.zeros((1, 1, 3, 4)))
+        moved = (b.pf.offset != d0)[0].any(axis=1)
+        np.testing.assert_array_equal(moved, ~top if space == "split" else np.zeros(200, bool))
 
 
 def test_a_draw_from_the_belief_picks_particles_by_weight():

@@ -86,8 +86,8 @@ class FilterConfig:
     noise_space: str = setting("noise_space", choices=NOISE_SPACES, derived="split for motion = commit, else state",
                                doc="where a particle's process noise goes: state (Eq. 9a); start: its start, the "
                                    "state moving by the committed plan's response, so the noise contracts as the "
-                                   "plans do; split: the highest level to the state, the others to the start "
-                                   "(motion = commit)")
+                                   "plans do; split: the highest level (the only one, if one) to the state, the "
+                                   "others to the start (motion = commit)")
     motion: str = setting("motion", choices=MOTIONS, derived="commit for kind = particle, else replan",
                           doc="replan: every step re-plans each target from its belief (Eq. 8c); commit: the "
                               "particle cloud is split once into plan_clusters clusters, each planned once and "

@@ -20,9 +20,9 @@
   offset ``d`` and moves the state by the committed plan's response ``G_t (d_new - d)``
   (``G_t = d x_t / d x_0``, :attr:`ParticleBelief.sens`), so the particle flies the plan
   of its new start and the noise contracts as the plans do (a planned truth's spread
-  shrinks to its goal point by the horizon's end); ``"split"`` sends the highest level to
-  the state, where it lets particles leave the plans' affine model (a target on another
-  route than its cluster's plan), and the others to the start.
+  shrinks to its goal point by the horizon's end); ``"split"`` sends the highest level (the
+  only one, if one) to the state, where it lets particles leave the plans' affine model (a
+  target on another route than its cluster's plan), and the others to the start.
 * Update (Eq. 9b) with the measurement-set likelihood Eq. (10).  For uniform clutter
   ``p(phi) = 1 / (2 pi)`` and ``Psi(n; L) = e^-L L^n / n!`` the factorials cancel:
 
@@ -519,8 +519,9 @@ class ParticleBelief:
         if self.noise_space != "state":
             nu = self.pf.noise(self.rng, np.empty(self.pf.particles.shape)) @ q_chol.T  # (M, N, 6) each level's
             in_state = np.zeros(lab.shape, bool)
-            if self.noise_space == "split" and self.pf.levels is not None:
-                in_state = self.pf.mode == len(self.pf.levels) - 1
+            if self.noise_space == "split":  # the highest level (the only one, if one) stays in the state
+                levels = self.pf.levels
+                in_state = np.ones(lab.shape, bool) if levels is None else self.pf.mode == np.argmax(levels)
                 state_noise = np.where(in_state[..., None], nu, 0.0)
             self._move_starts(np.where(in_state[..., None], 0.0, nu[..., HORIZONTAL]))
             q_chol = None
