@@ -10,6 +10,7 @@ from uavsim.belief.gaussian import GaussianBelief
 from uavsim.belief.particle import (
     ParticleBelief,
     ParticleFilter,
+    by_label,
     cluster_weights,
     clusters,
     halves,
@@ -282,6 +283,17 @@ def test_label_mass_is_each_clusters_weight():
     lab = np.array([[0, 1, 0, 2], [3, 3, 3, 3]])
     np.testing.assert_allclose(label_mass(w, lab, 4), [[0.4, 0.2, 0.4, 0.0], [0.0, 0.0, 0.0, 1.0]], atol=1e-15)
     np.testing.assert_allclose(label_mass(w, lab, 4), cluster_weights(w, lab, 4)[1], atol=1e-15)
+
+
+def test_by_label_gives_each_particle_its_clusters_rows():
+    """By hand: two targets' three clusters of (2, 2) rows; labels 2 0 2 and 1 1 0 pick
+    those clusters' rows for each particle, the same as ``np.take_along_axis``."""
+    per = np.arange(2 * 3 * 2 * 2, dtype=float).reshape(2, 3, 2, 2)
+    lab = np.array([[2, 0, 2], [1, 1, 0]])
+    got = by_label(per, lab)
+    np.testing.assert_array_equal(got, [[per[0, 2], per[0, 0], per[0, 2]], [per[1, 1], per[1, 1], per[1, 0]]])
+    np.testing.assert_array_equal(got, np.take_along_axis(per, lab[..., None, None], axis=1))
+    np.testing.assert_array_equal(by_label(per[..., 0, 0], lab), [[8.0, 0.0, 8.0], [16.0, 16.0, 12.0]])
 
 
 def test_committed_prediction_is_the_cluster_force_plus_the_gain_on_the_offset():

@@ -338,6 +338,16 @@ def cluster_weights(weights: np.ndarray, label: np.ndarray, k: int) -> tuple[np.
     return np.where(mass[..., None] > 0, parts / safe, weights[:, None, :]), mass
 
 
+def by_label(per_cluster: np.ndarray, label: np.ndarray) -> np.ndarray:
+    """``(M, N, ...)``: each particle's row of ``per_cluster (M, k, ...)`` under ``label (M, N)``,
+    by one ``take`` on the flattened clusters (``np.take_along_axis`` with broadcast trailing
+    axes is 50 times slower at 8 x 5000 particles and (6, 4) rows)."""
+    m, k = per_cluster.shape[:2]
+    flat = (label + np.arange(m)[:, None] * k).ravel()
+    rows = per_cluster.reshape(m * k, -1).take(flat, axis=0)
+    return rows.reshape(*label.shape, *per_cluster.shape[2:])
+
+
 def label_mass(weights: np.ndarray, label: np.ndarray, k: int) -> np.ndarray:
     """``(M, k)`` each cluster's share of the weights ``(M, N)`` under ``label (M, N)``: the
     ``mass`` of :func:`cluster_weights` without its ``(M, k, N)`` parts (one pass)."""
@@ -525,8 +535,8 @@ class ParticleBelief:
                 state_noise = np.where(in_state[..., None], nu, 0.0)
             self._move_starts(np.where(in_state[..., None], 0.0, nu[..., HORIZONTAL]))
             q_chol = None
-        own = np.take_along_axis(forces, lab[..., None], axis=1)  # (M, N, 3)
-        own += np.einsum("mnij,mnj->mni", np.take_along_axis(gains, lab[..., None, None], axis=1), self.pf.offset)
+        own = by_label(forces, lab)  # (M, N, 3)
+        own += np.einsum("mnij,mnj->mni", by_label(gains, lab), self.pf.offset)
         self.pf.predict(self.rng, dynamics.a, dynamics.b, q_chol, own)
         if state_noise is not None:
             self.pf.particles += state_noise
@@ -535,8 +545,7 @@ class ParticleBelief:
     def _move_starts(self, step: np.ndarray) -> None:
         """Each particle's start offset moves by ``step (M, N, 4)`` and its state by its
         cluster's sensitivity times that: it then flies the committed plan from its new start."""
-        sens = np.take_along_axis(self.sens, self.pf.label[..., None, None], axis=1)
-        self.pf.particles += np.einsum("mnij,mnj->mni", sens, step)
+        self.pf.particles += np.einsum("mnij,mnj->mni", by_label(self.sens, self.pf.label), step)
         self.pf.offset += step
 
     def halves(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
