@@ -353,7 +353,8 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-tracking-step-grid": "tracking-step-grid.json", "towns-tracking-fixed": "tracking-fixed.json",
     "towns-calibrated": "tracking-calibrated.json", "towns-link": "tracking-link.json",
     "towns-keep-out": "tracking-keep-out.json", "towns-commit": "tracking-commit.json",
-    "towns-clusters16": "tracking-clusters16.json", "towns-noise-split": "tracking-split.json"}
+    "towns-clusters16": "tracking-clusters16.json", "towns-noise-split": "tracking-split.json",
+    "towns-station": "tracking-station.json", "towns-grid-split": "tracking-grid.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
