@@ -506,7 +506,7 @@ class ParticleBelief:
         self.pf.label = clusters(self.pf.particles, self.pf.weights, k)
         parts, mass = cluster_weights(self.pf.weights, self.pf.label, k)
         means, covs = part_moments(self.pf.particles, parts)
-        own = np.take_along_axis(means, self.pf.label[..., None], axis=1)  # (M, N, 6)
+        own = by_label(means, self.pf.label)  # (M, N, 6) each particle's cluster mean
         self.pf.offset = (self.pf.particles - own)[..., HORIZONTAL]
         self.sens = np.zeros((*mass.shape, 6, 4))
         self.sens[..., HORIZONTAL, np.arange(4)] = 1.0
