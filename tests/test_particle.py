@@ -14,7 +14,9 @@ from uavsim.belief.particle import (
     cluster_weights,
     clusters,
     halves,
+    join_clusters,
     label_mass,
+    reference_clusters,
     restricted_draws,
     systematic_indices,
     weighted_moments,
@@ -273,6 +275,34 @@ def test_clusters_find_separated_clouds_and_are_deterministic():
     np.testing.assert_array_equal(label, clusters(x[order][None], w[None], 4)[0])
     six = clusters(x[order][None], w[None], 6)[0]
     assert all(len(set(cloud[order][six == k].tolist())) == 1 for k in np.unique(six))
+
+
+def test_particles_join_the_reference_cluster_nearest_in_its_scale():
+    """By hand: reference means at (x, vx) = (0, 4) and (6, 0); a particle at (2, 1) is
+    nearer the first in equal scales (4 + 9 = 13 against 16 + 1 = 17) and the second when x
+    counts a tenth (0.04 + 9 against 0.16 + 1); a cluster without particles is never
+    joined.  The four separated clouds of the test above, drawn twice: the second draw joins
+    the first's clusters cloud by cloud, and the reference cloud itself joins its own
+    k-means labels (its cells)."""
+    means = np.zeros((1, 2, 6))
+    means[0, 0, 3], means[0, 1, 0] = 4.0, 6.0
+    p = np.zeros((1, 1, 6))
+    p[0, 0, [0, 3]] = 2.0, 1.0
+    live = np.ones((1, 2), bool)
+    assert join_clusters(p, means, np.ones((1, 4)), live)[0, 0] == 0
+    assert join_clusters(p, means, np.array([[10.0, 1.0, 1.0, 1.0]]), live)[0, 0] == 1
+    assert join_clusters(p, means, np.ones((1, 4)), np.array([[False, True]]))[0, 0] == 1
+    rng = np.random.default_rng(8)
+    n = 500
+    shifts = np.array([[0, 0, 0, 0, 0, 0], [200, 0, 0, 0, 0, 0], [0, 0, 0, 12, 0, 0], [0, 200, 0, 0, -12, 0]])
+    ref, other = (np.concatenate([rng.normal(size=(n, 6)) * [10, 10, 0, 1, 1, 0] + s for s in shifts])[None]
+                  for _ in range(2))
+    means, covs, scale, live = reference_clusters(ref, 4)
+    assert live.all() and covs.shape == (1, 4, 6, 6)
+    own = clusters(ref, np.full((1, 4 * n), 1.0 / (4 * n)), 4)
+    np.testing.assert_array_equal(join_clusters(ref, means, scale, live), own)
+    joined = join_clusters(other, means, scale, live)[0].reshape(4, n)
+    np.testing.assert_array_equal(joined, own[0].reshape(4, n)[:, :1].repeat(n, axis=1))
 
 
 def test_label_mass_is_each_clusters_weight():

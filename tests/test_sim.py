@@ -368,3 +368,28 @@ def test_committed_plans_fly_the_truths_plan_and_renew_with_it():
         replanned.append(len(sim.replans))
     assert max(gap) < 1.0
     assert replanned == [2 * len(m.targets), 0, 0, 0, 0, 2 * len(m.targets), 0, 0]
+
+
+def test_first_committed_plans_are_made_once_and_change_no_trial():
+    """``motion = "commit"``: the first step's clusters come from a reference cloud, so their
+    plans are the same in every trial and a kept guidance makes them once: a second trial
+    on the same guidance flies the very plans of the first (the same objects) and makes no
+    plan of its own at step 0, and it gives, bit for bit, what it gives on a fresh guidance
+    (a campaign's trials do not depend on which worker ran which)."""
+    m = load_mission(PAPER, {"steps": 3, "trials": 2, "filter.particles": 200, "filter.motion": "commit",
+                             "filter.plan_clusters": 3})
+    seeds = trial_seeds(m.seed, 2)
+    kept = Simulation(m, "optimized")
+    kept.reset(seeds[0])
+    kept.step()
+    first = kept.committed
+    again = Simulation(m, "optimized", kept.guidance)
+    again.reset(seeds[1])
+    cold = len(kept.guidance._cold)
+    again.step()
+    assert again.committed is first and len(kept.guidance._cold) == cold
+    shared = run_trial(m, "optimized", 1, seeds[1], kept.guidance)
+    fresh = run_trial(m, "optimized", 1, seeds[1])
+    np.testing.assert_array_equal(shared.err2, fresh.err2)
+    np.testing.assert_array_equal(shared.nees_pos, fresh.nees_pos)
+    assert shared.events == fresh.events

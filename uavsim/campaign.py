@@ -358,6 +358,8 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
         del data["filter"]["keep_out"]
     if data["filter"]["motion"] == "replan":  # re-planned every step: as before the setting existed
         del data["filter"]["motion"]
+    else:  # committed plans: the first step's clusters are a reference cloud's, not each trial's own
+        data["filter"]["first_clusters"] = "reference"
     if data["guidance"]["terminal"] == "soft":  # likewise
         del data["guidance"]["terminal"]
     if not data["guidance"]["link"]:  # P1 without the link term: as before

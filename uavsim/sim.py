@@ -24,7 +24,9 @@ Each step t -> t+1:
    halved the targets lost against a filter handed the truth's forces; docs/methods/filter.md).  A cloud
    with a half holding less than :data:`MIN_HALF` of the weight moves by the plan from its mean.
    With ``[filter] motion = "commit"`` nothing is re-planned: at the first step each cloud
-   is split into ``plan_clusters`` clusters (:func:`.belief.particle.clusters`), each
+   is split into ``plan_clusters`` clusters (:func:`.belief.particle.clusters`; those of a
+   reference cloud drawn from the prior, the same in every trial, which the particles join:
+   :meth:`Simulation._first_commit`), each
    cluster is planned once from its mean (warm-started from the plan at the prior), and a
    particle flies its cluster's plan open loop, its force corrected by the plan's response
    to its own start (:meth:`.guidance.Guidance.gains`), as a planned truth flies the plan
@@ -52,6 +54,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .belief import make_belief
+from .belief.particle import reference_clusters, restricted_draws
 from .guidance import Guidance, Plan
 from .mission import Mission
 from .sensing import Scan
@@ -63,6 +66,7 @@ __all__ = ["Simulation", "StepInfo", "target_bearings"]  # the public interface 
 
 STAGES = ("guidance", "filter", "planner", "truth", "total")  # seconds per step; "planner": the policy's act
 MIN_HALF = 0.01  # a cloud with a half of less weight than this moves by the plan from its mean
+REFERENCE_SEED = 0  # the stream of the cloud the first step's clusters are drawn from (Simulation._first_commit)
 
 
 @dataclass
@@ -284,18 +288,50 @@ class Simulation:
         is its heaviest cluster's plan from this step on."""
         k = self.m.filter.plan_clusters
         age = self.t - self._committed_at
-        if self.t == 0 or age >= len(self.committed[0][0].controls):
+        if self.t == 0:
+            reference, self.committed, self._gains, notes = self._first_commit(k)
+            mass = self.belief.commit(k, reference)[2]
+            events += notes
+        elif age >= len(self.committed[0][0].controls):
             means, covs, mass = self.belief.commit(k)
-            warm = [self._prior_plan(j) if self.t == 0 else None for j in range(len(means))]
-            self.committed = [[self._replan(j, means[j, c], covs[j, c], warm[j], events, f"estimate, cluster {c + 1}",
-                                            shift=0) for c in range(k)] for j in range(len(means))]
-            self._gains = np.array([[self._plan_gains(j, means[j, c], p, events) for c, p in enumerate(plans)]
-                                    for j, plans in enumerate(self.committed)])
+            self.committed, self._gains = self._cluster_plans(means, covs, [None] * len(means), events)
             self._committed_at, age = self.t, 0
         else:
             mass = self.belief.cluster_mass(k)
         self.plans = [_from_step(plans[int(np.argmax(w))], age) for plans, w in zip(self.committed, mass)]
         return np.array([[p.controls[age] for p in plans] for plans in self.committed]), self._gains[:, :, age]
+
+    def _first_commit(self, k: int) -> tuple[tuple, list[list[Plan]], np.ndarray, list[str]]:
+        """The first step's clusters (:func:`.belief.particle.reference_clusters` of a cloud
+        drawn from the priors with :data:`REFERENCE_SEED`, restricted as the belief's is), their
+        plans (warm-started from the plans at the priors), gains and events: the same in every
+        trial, so made once and kept with the guidance (a campaign's worker keeps its guidance
+        for all its trials).  Each trial's particles join these clusters (their cells)."""
+        m = self.m
+        means0, covs0 = np.array([t.mean0 for t in m.targets]), np.array([t.cov0 for t in m.targets])
+        key = ("first commit", k, m.filter.particles, m.filter.keep_out, means0.tobytes(), covs0.tobytes(),
+               np.array(m.goals).tobytes())
+        if key not in self.guidance.kept:
+            clear = self._clear if m.filter.keep_out else None
+            cloud = restricted_draws(np.random.default_rng(REFERENCE_SEED), means0, covs0, m.filter.particles, clear)[0]
+            reference = reference_clusters(cloud, k)
+            events: list[str] = []
+            plans, gains = self._cluster_plans(*reference[:2], [self._prior_plan(j) for j in range(len(m.targets))],
+                                               events)
+            for a in (*reference, gains):
+                a.flags.writeable = False  # shared by every trial that keeps this guidance
+            self.guidance.kept[key] = (reference, plans, gains, events)
+        return self.guidance.kept[key]
+
+    def _cluster_plans(self, means: np.ndarray, covs: np.ndarray, warm: list[Plan | None], events: list[str]
+                       ) -> tuple[list[list[Plan]], np.ndarray]:
+        """Every target's plan from each of its clusters' ``means (M, k, 6)`` and ``covs
+        (M, k, 6, 6)``, warm-started from ``warm[j]``, and their gains ``(M, k, T, 3, 4)``."""
+        plans = [[self._replan(j, means[j, c], covs[j, c], warm[j], events, f"estimate, cluster {c + 1}", shift=0)
+                  for c in range(means.shape[1])] for j in range(len(means))]
+        gains = np.array([[self._plan_gains(j, means[j, c], p, events) for c, p in enumerate(row)]
+                          for j, row in enumerate(plans)])
+        return plans, gains
 
     def _plan_gains(self, j: int, start: np.ndarray, plan: Plan, events: list[str]) -> np.ndarray:
         """``(T, 3, 4)`` target j's plan's gains (:meth:`.guidance.Guidance.gains`) at the

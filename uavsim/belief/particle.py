@@ -328,6 +328,31 @@ def clusters(particles: np.ndarray, weights: np.ndarray, k: int, iters: int = 20
     return label
 
 
+def reference_clusters(particles: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Clusters of an equally weighted reference cloud ``particles (M, N, 6)`` (:func:`clusters`)
+    for other clouds to join (:func:`join_clusters`): each cluster's mean ``(M, k, 6)`` and
+    covariance ``(M, k, 6, 6)``, the cloud's ``[x, y, vx, vy]`` standard deviations ``(M, 4)``
+    (the clustering's scale) and which clusters hold particles ``(M, k)``."""
+    weights = np.full(particles.shape[:2], 1.0 / particles.shape[1])
+    label = clusters(particles, weights, k)
+    parts, mass = cluster_weights(weights, label, k)
+    means, covs = part_moments(particles, parts)
+    z = particles[..., HORIZONTAL] - particles[..., HORIZONTAL].mean(axis=1, keepdims=True)
+    sd = np.sqrt((z * z).mean(axis=1))
+    return means, covs, np.where(sd > 0, sd, 1.0), mass > 0
+
+
+def join_clusters(particles: np.ndarray, means: np.ndarray, scale: np.ndarray, live: np.ndarray) -> np.ndarray:
+    """``(M, N)`` labels: each of ``particles (M, N, 6)`` joins the cluster of
+    :func:`reference_clusters` (``means (M, k, 6)``, ``scale (M, 4)``, ``live (M, k)``) whose
+    mean is nearest in ``[x, y, vx, vy]`` scaled by ``scale``: the reference's k-means cells,
+    where its means are its centres."""
+    z = particles[..., HORIZONTAL] / scale[:, None, :]
+    c = means[..., HORIZONTAL] / scale[:, None, :]  # (M, k, 4)
+    d = (c * c).sum(-1)[:, None, :] - 2.0 * z @ c.transpose(0, 2, 1)  # (M, N, k) + |z|^2
+    return np.argmin(np.where(live[:, None, :], d, np.inf), axis=2)
+
+
 def cluster_weights(weights: np.ndarray, label: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """``(parts (M, k, N), mass (M, k))``: the weights ``(M, N)`` of each of ``k`` clusters
     labelled ``label (M, N)`` (a split's mask is labels 0 and 1), renormalised within the
@@ -497,15 +522,22 @@ class ParticleBelief:
                           + " (particles inside obstacles)")
         return events
 
-    def commit(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def commit(self, k: int, reference: tuple | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Split each cloud in ``k`` clusters (:func:`clusters`), which the particles keep
         (resampling copies a particle's cluster and offset); each particle's offset is its
         ``[x, y, vx, vy]`` less its cluster's mean.  Returns each cluster's mean ``(M, k, 6)``,
         covariance ``(M, k, 6, 6)`` and weight ``(M, k)`` (an empty cluster has the cloud's
-        mean and covariance and weight 0)."""
-        self.pf.label = clusters(self.pf.particles, self.pf.weights, k)
-        parts, mass = cluster_weights(self.pf.weights, self.pf.label, k)
-        means, covs = part_moments(self.pf.particles, parts)
+        mean and covariance and weight 0).  ``reference``: the clusters of another cloud
+        (:func:`reference_clusters`), which the particles join (:func:`join_clusters`); their
+        means and covariances are returned, and the offsets are from those means."""
+        if reference is None:
+            self.pf.label = clusters(self.pf.particles, self.pf.weights, k)
+            parts, mass = cluster_weights(self.pf.weights, self.pf.label, k)
+            means, covs = part_moments(self.pf.particles, parts)
+        else:
+            means, covs, scale, live = reference
+            self.pf.label = join_clusters(self.pf.particles, means, scale, live)
+            mass = label_mass(self.pf.weights, self.pf.label, k)
         own = by_label(means, self.pf.label)  # (M, N, 6) each particle's cluster mean
         self.pf.offset = (self.pf.particles - own)[..., HORIZONTAL]
         self.sens = np.zeros((*mass.shape, 6, 4))

@@ -139,6 +139,7 @@ class Guidance:
         self.geom = geometry(world, dynamics, cfg)
         self._models: dict[int, tuple] = {}
         self._cold: dict[bytes, Plan] = {}  # plans without warm start: a pure function of the inputs
+        self.kept: dict = {}  # what a closed loop derives from this guidance alone, the same every trial
         self.reach, self.oa = self._model(cfg.horizon)
 
     def _model(self, horizon: int):
