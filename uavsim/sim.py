@@ -26,7 +26,7 @@ Each step t -> t+1:
    With ``[filter] motion = "commit"`` nothing is re-planned: at the first step each cloud
    is split into ``plan_clusters`` clusters (:func:`.belief.particle.clusters`; those of a
    reference cloud drawn from the prior, the same in every trial, which the particles join:
-   :meth:`Simulation._first_commit`), each
+   :meth:`Simulation.first_commit`), each
    cluster is planned once from its mean (warm-started from the plan at the prior), and a
    particle flies its cluster's plan open loop, its force corrected by the plan's response
    to its own start (:meth:`.guidance.Guidance.gains`), as a planned truth flies the plan
@@ -66,7 +66,7 @@ __all__ = ["Simulation", "StepInfo", "target_bearings"]  # the public interface 
 
 STAGES = ("guidance", "filter", "planner", "truth", "total")  # seconds per step; "planner": the policy's act
 MIN_HALF = 0.01  # a cloud with a half of less weight than this moves by the plan from its mean
-REFERENCE_SEED = 0  # the stream of the cloud the first step's clusters are drawn from (Simulation._first_commit)
+REFERENCE_SEED = 0  # the stream of the cloud the first step's clusters are drawn from (Simulation.first_commit)
 
 
 @dataclass
@@ -289,7 +289,7 @@ class Simulation:
         k = self.m.filter.plan_clusters
         age = self.t - self._committed_at
         if self.t == 0:
-            reference, self.committed, self._gains, notes = self._first_commit(k)
+            reference, self.committed, self._gains, notes = self.first_commit(k)
             mass = self.belief.commit(k, reference)[2]
             events += notes
         elif age >= len(self.committed[0][0].controls):
@@ -301,7 +301,7 @@ class Simulation:
         self.plans = [_from_step(plans[int(np.argmax(w))], age) for plans, w in zip(self.committed, mass)]
         return np.array([[p.controls[age] for p in plans] for plans in self.committed]), self._gains[:, :, age]
 
-    def _first_commit(self, k: int) -> tuple[tuple, list[list[Plan]], np.ndarray, list[str]]:
+    def first_commit(self, k: int) -> tuple[tuple, list[list[Plan]], np.ndarray, list[str]]:
         """The first step's clusters (:func:`.belief.particle.reference_clusters` of a cloud
         drawn from the priors with :data:`REFERENCE_SEED`, restricted as the belief's is), their
         plans (warm-started from the plans at the priors), gains and events: the same in every
