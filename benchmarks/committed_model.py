@@ -15,8 +15,8 @@ start by the cluster's plan and gains and by every other cluster's, noise-free, 
 ``--steps`` steps, against the truth's own plan.  Per target-trial: the largest position gap
 over the steps with the joined cluster's model (``gap``) and with the best cluster's.  With
 ``--runs``, the campaign folder of ``tracking.py`` (``RUNS/WORLD-nN/optimized``, the same
-trials) gives each target-trial's position NEES averaged over the second half, grouped by
-its gap.
+trials, the mission's own clusters) gives each target-trial's position NEES averaged over
+the second half, grouped by its gap (in the row of the mission's ``plan_clusters`` only).
 """
 
 from __future__ import annotations
@@ -52,11 +52,11 @@ def measure(args) -> dict:
     rows = []
     for world in args.worlds.split(","):
         path = mission_file(world, args.targets, Path(args.out))
-        late = second_half_nees(args, world, path)
+        late, tracked = second_half_nees(args, world, path), load_mission(path).filter.plan_clusters
         for k in map(int, args.clusters.split(",")):
             m = load_mission(path, {"trials": args.trials, "steps": args.steps, "filter.plan_clusters": k})
             gap, best = gaps(m)
-            rows.append(summary(world, k, gap, best, late))
+            rows.append(summary(world, k, gap, best, late if k == tracked else None))
             print(markdown_table(HEAD, [cells(rows[-1])]).splitlines()[-1], flush=True)
     print(markdown_table(HEAD, [cells(r) for r in rows]))
     return {"rows": rows}
