@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 import budget
+import committed_model
 import consistency
 import numpy as np
 import osm_import
@@ -354,7 +355,8 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-calibrated": "tracking-calibrated.json", "towns-link": "tracking-link.json",
     "towns-keep-out": "tracking-keep-out.json", "towns-commit": "tracking-commit.json",
     "towns-clusters16": "tracking-clusters16.json", "towns-noise-split": "tracking-split.json",
-    "towns-station": "tracking-station.json", "towns-grid-split": "tracking-grid.json"}
+    "towns-station": "tracking-station.json", "towns-grid-split": "tracking-grid.json",
+    "towns-first-commit": "tracking-first-commit.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
@@ -406,6 +408,16 @@ def tables_consistency(data: dict | None, name: str = "towns-consistency") -> di
     return {name: consistency.force_table(f["forces"]) + "\n\n" + consistency.oracle_table(f["oracle"])
             + f"\n\n{forces}; NEES: {s['trials']} trials of {s['steps']} steps a row, the same trials in every row "
             "of a world. " + provenance(data)}
+
+
+def tables_committed_model(data: dict | None) -> dict[str, str]:
+    """The committed filter's model against the planned truths (``committed_model.py``)."""
+    if data is None:
+        return {}
+    s = data["settings"]
+    rows = [committed_model.cells(r) for r in data["figures"]["rows"]]
+    return {"towns-committed-model": md(committed_model.HEAD, rows)
+            + f"\n\n{s['trials']} trials of {s['steps']} steps a world. " + provenance(data)}
 
 
 def tables_bo_standard(data: dict | None) -> dict[str, str]:
@@ -495,7 +507,8 @@ def pages() -> dict[Path, dict[str, str]]:
                 _load(DATA / "osm-import.json"), _load(DATA / "budget.json"), _load(DATA / "plan-of-work.json"),
                 _load(DATA / "towns.json"), {name: _load(DATA / f) for name, f in TOWN_CAMPAIGNS.items()},
                 _load(DATA / "line-of-sight.json")), **tables_consistency(_load(DATA / "consistency.json")),
-                **tables_consistency(_load(DATA / "consistency-link.json"), "towns-consistency-link")},
+                **tables_consistency(_load(DATA / "consistency-link.json"), "towns-consistency-link"),
+                **tables_committed_model(_load(DATA / "committed-model.json"))},
             DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
                                                 **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
                                                                    "lookahead-clusters2")},
