@@ -417,7 +417,7 @@ def tables_committed_model(data: dict | None) -> dict[str, str]:
     s = data["settings"]
     rows = [committed_model.cells(r) for r in data["figures"]["rows"]]
     return {"towns-committed-model": md(committed_model.HEAD, rows)
-            + f"\n\n{s['trials']} trials of {s['steps']} steps a world. " + provenance(data)}
+            + f"\n\n{s['trials']} trials of {s['steps']} steps a world; --choices {s['choices']}. " + provenance(data)}
 
 
 def tables_bo_standard(data: dict | None) -> dict[str, str]:
