@@ -26,9 +26,7 @@ and the filter's re-plans alike); ``no-keep-out``: the mission's filter with its
 free to cross obstacles and its prior unrestricted (``filter.keep_out = false``; its
 baseline likewise, ``OUT/baseline-False``); ``replan`` and ``commit``: the filter's particles
 moved by re-plans every step, or by the committed plans of clusters (``filter.motion``; the
-baseline likewise, ``OUT/baseline-replan-2``, ``OUT/baseline-commit``); ``choices-3``: a
-committed particle flies the plan of one of its 3 nearest clusters (``filter.cluster_choices``;
-the baseline likewise, ``OUT/baseline-3``).  Every variant runs the
+baseline likewise, ``OUT/baseline-replan-2``, ``OUT/baseline-commit``).  Every variant runs the
 same trials (trial k seeded from ``SeedSequence(seed).spawn(trials)[k]``) beside the
 no-information baseline of those trials
 (:func:`uavsim.campaign.with_baseline`), and reports what a tracking result needs: RMSE over
@@ -76,11 +74,10 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     # every step re-plans (two halves a target), its noise levels as they were with it
     "replan": ("optimized", {"filter.motion": "replan", "filter.plan_clusters": 2, "filter.noise_scales": [0.03, 0.3]}),
     "commit": ("optimized", {"filter.motion": "commit"}),  # clusters' plans made once, flown open loop
-    "choices-3": ("optimized", {"filter.cluster_choices": 3}),  # a particle flies one of its 3 nearest clusters' plans
 }
 # overrides the baseline takes too: they change the truths (truth, guidance) or what the filter
 # knows without a measurement (keep_out, motion and its clusters)
-SHARED = ("truth", "guidance.", "filter.keep_out", "filter.motion", "filter.plan_clusters", "filter.cluster_choices")
+SHARED = ("truth", "guidance.", "filter.keep_out", "filter.motion", "filter.plan_clusters")
 
 
 def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, workers: int, resume: bool) -> dict:

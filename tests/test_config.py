@@ -114,11 +114,6 @@ BAD_MISSIONS = [
     (sub("plan_clusters = 1", "plan_clusters = 65").replace('motion = "replan"', 'motion = "commit"'),
      "filter.plan_clusters", "must be in [1, 64], got 65"),
     (sub('motion = "replan"', 'motion = "drift"'), "filter.motion", "must be one of replan, commit"),
-    (sub("plan_clusters = 1", "plan_clusters = 1\ncluster_choices = 2"), "filter.cluster_choices",
-     'committed clusters (motion = "commit"), got motion = "replan"'),
-    (sub("plan_clusters = 1", "plan_clusters = 4\ncluster_choices = 5")
-     .replace('motion = "replan"', 'motion = "commit"'), "filter.cluster_choices",
-     "must be at most plan_clusters (4), got 5"),
     (sub("noise_scales = [1.0]", "noise_scales = [0.1, 1.0]\nnoise_shares = [1.0]"), "filter.noise_shares",
      "needs one chance per noise_scales value (2), got 1"),
     (sub("noise_scales = [1.0]", "noise_scales = [0.1, 1.0]\nnoise_shares = [0.5, 0.4]"), "filter.noise_shares",

@@ -305,27 +305,6 @@ def test_particles_join_the_reference_cluster_nearest_in_its_scale():
     np.testing.assert_array_equal(joined, own[0].reshape(4, n)[:, :1].repeat(n, axis=1))
 
 
-def test_particles_choose_among_their_nearest_clusters_alike():
-    """``cluster_choices``: means at x = 0, 10, 20 and 30 (equal scales); 4000 particles at x
-    = 12 join cluster 1 or 2 (distances 2 and 8, against 12 and 18), each with a share within
-    4 standard errors of 1/2 (sd sqrt(1/4 / 4000) = 0.008); with three choices also cluster 0
-    (distance 12), each a third; a cluster without particles is never chosen, and one
-    choice is the nearest (cluster 1).  The same generator draws the same labels."""
-    means = np.zeros((1, 4, 6))
-    means[0, :, 0] = [0.0, 10.0, 20.0, 30.0]
-    p = np.zeros((1, 4000, 6))
-    p[..., 0] = 12.0
-    scale, live = np.ones((1, 4)), np.ones((1, 4), bool)
-    two = join_clusters(p, means, scale, live, 2, np.random.default_rng(1))[0]
-    assert set(two.tolist()) == {1, 2} and abs((two == 1).mean() - 0.5) < 4 * 0.008
-    three = join_clusters(p, means, scale, live, 3, np.random.default_rng(1))[0]
-    assert set(three.tolist()) == {0, 1, 2} and all(abs((three == c).mean() - 1 / 3) < 4 * 0.0075 for c in range(3))
-    dead = join_clusters(p, means, scale, np.array([[True, True, False, True]]), 2, np.random.default_rng(1))[0]
-    assert set(dead.tolist()) == {0, 1}
-    np.testing.assert_array_equal(join_clusters(p, means, scale, live)[0], 1)
-    np.testing.assert_array_equal(two, join_clusters(p, means, scale, live, 2, np.random.default_rng(1))[0])
-
-
 def test_label_mass_is_each_clusters_weight():
     """By hand: weights 0.1 0.2 0.3 0.4 labelled 0 1 0 2 (k = 4) hold 0.4, 0.2, 0.4 and 0
     (an empty cluster); a second cloud labelled all 3 holds 1 there.  The same as the mass of

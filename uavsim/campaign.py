@@ -360,8 +360,6 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
         del data["filter"]["motion"]
     else:  # committed plans: the first step's clusters are a reference cloud's, not each trial's own
         data["filter"]["first_clusters"] = "reference"
-    if data["filter"]["cluster_choices"] == 1:  # the nearest cluster: as before the setting existed
-        del data["filter"]["cluster_choices"]
     if data["guidance"]["terminal"] == "soft":  # likewise
         del data["guidance"]["terminal"]
     if not data["guidance"]["link"]:  # P1 without the link term: as before

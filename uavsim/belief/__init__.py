@@ -96,10 +96,6 @@ class FilterConfig:
                                  derived="16 for motion = commit, 2 for kind = particle, else 1",
                                  doc="plans per target: with motion = replan 1 from the mean or 2 one per half of the "
                                      "particle cloud; with motion = commit one per cluster")
-    cluster_choices: int = setting("cluster_choices", 1, lo=1, hi=64,
-                                   doc="with motion = commit, a particle joins one of its this many nearest clusters, "
-                                       "drawn alike (1: the nearest), so that where routes fork its neighbours fly "
-                                       "either side's plan")
     keep_out: bool = setting("keep_out", kind="boolean", derived="true for kind = particle, else false",
                              doc="the filter knows the targets keep out of the obstacles, as the true ones do: its "
                                  "prior is N(mu_0, Sigma_0) restricted to the starts a true target may take, and a "
@@ -140,12 +136,6 @@ class FilterConfig:
         if self.plan_clusters > 1 and self.kind != "particle":
             raise SettingError("plan_clusters", f"needs particles to split (kind = \"particle\"), got kind = "
                                                 f"\"{self.kind}\"")
-        if self.cluster_choices > 1 and self.motion != "commit":
-            raise SettingError("cluster_choices", f"chooses among committed clusters (motion = \"commit\"), got "
-                                                  f"motion = \"{self.motion}\"")
-        if self.cluster_choices > self.plan_clusters:
-            raise SettingError("cluster_choices", f"must be at most plan_clusters ({self.plan_clusters}), got "
-                                                  f"{self.cluster_choices}")
         if self.keep_out is None:
             object.__setattr__(self, "keep_out", self.kind == "particle")
         if self.keep_out and self.kind != "particle":
@@ -214,5 +204,5 @@ def make_belief(cfg: FilterConfig, rng: np.random.Generator, means: np.ndarray, 
     if cfg.kind == "particle":
         return ParticleBelief(rng, means, covs, cfg.particles, cfg.resample_threshold, cfg.roughening, names,
                               cfg.loss_nats, cfg.noise_scales, cfg.scale_switch, clear if cfg.keep_out else None,
-                              cfg.noise_shares, cfg.noise_space, cfg.cluster_choices)
+                              cfg.noise_shares, cfg.noise_space)
     return GaussianBelief(cfg.kind, means, covs, speed_max, names)

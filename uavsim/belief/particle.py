@@ -337,35 +337,20 @@ def reference_clusters(particles: np.ndarray, k: int) -> tuple[np.ndarray, np.nd
     label = clusters(particles, weights, k)
     parts, mass = cluster_weights(weights, label, k)
     means, covs = part_moments(particles, parts)
-    return means, covs, spread(particles, weights), mass > 0
+    z = particles[..., HORIZONTAL] - particles[..., HORIZONTAL].mean(axis=1, keepdims=True)
+    sd = np.sqrt((z * z).mean(axis=1))
+    return means, covs, np.where(sd > 0, sd, 1.0), mass > 0
 
 
-def spread(particles: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """``(M, 4)`` the weighted standard deviations of ``[x, y, vx, vy]`` of ``particles (M, N,
-    6)`` under ``weights (M, N)``, 1 where a cloud has none (the scale :func:`clusters` uses)."""
-    z = particles[..., HORIZONTAL]
-    z = z - np.einsum("mn,mni->mi", weights, z)[:, None, :]
-    sd = np.sqrt(np.einsum("mn,mni->mi", weights, z * z))
-    return np.where(sd > 0, sd, 1.0)
-
-
-def join_clusters(particles: np.ndarray, means: np.ndarray, scale: np.ndarray, live: np.ndarray,
-                  choices: int = 1, rng: np.random.Generator | None = None) -> np.ndarray:
+def join_clusters(particles: np.ndarray, means: np.ndarray, scale: np.ndarray, live: np.ndarray) -> np.ndarray:
     """``(M, N)`` labels: each of ``particles (M, N, 6)`` joins the cluster of
     :func:`reference_clusters` (``means (M, k, 6)``, ``scale (M, 4)``, ``live (M, k)``) whose
     mean is nearest in ``[x, y, vx, vy]`` scaled by ``scale``: the reference's k-means cells,
-    where its means are its centres.  ``choices > 1``: each joins one of its ``choices``
-    nearest clusters with particles, drawn alike from ``rng``."""
+    where its means are its centres."""
     z = particles[..., HORIZONTAL] / scale[:, None, :]
     c = means[..., HORIZONTAL] / scale[:, None, :]  # (M, k, 4)
     d = (c * c).sum(-1)[:, None, :] - 2.0 * z @ c.transpose(0, 2, 1)  # (M, N, k) + |z|^2
-    d = np.where(live[:, None, :], d, np.inf)
-    if choices == 1:
-        return np.argmin(d, axis=2)
-    near = np.argsort(d, axis=2)[..., :choices]  # (M, N, choices) nearest first
-    count = np.minimum(choices, live.sum(axis=1))[:, None]  # (M, 1) clusters with particles to choose from
-    pick = (rng.random(d.shape[:2]) * count).astype(int)
-    return np.take_along_axis(near, pick[..., None], axis=2)[..., 0]
+    return np.argmin(np.where(live[:, None, :], d, np.inf), axis=2)
 
 
 def cluster_weights(weights: np.ndarray, label: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
@@ -487,8 +472,8 @@ class ParticleBelief:
     def __init__(self, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int,
                  resample_threshold: float, roughening: float, names: tuple[str, ...], loss_nats: float = 0.0,
                  noise_scales: np.ndarray | None = None, scale_switch: float = 0.0, clear=None,
-                 noise_shares: np.ndarray | None = None, noise_space: str = "state", choices: int = 1):
-        self.rng, self.names, self.noise_space, self.choices = rng, names, noise_space, choices
+                 noise_shares: np.ndarray | None = None, noise_space: str = "state"):
+        self.rng, self.names, self.noise_space = rng, names, noise_space
         self.sens = None  # (M, k, 6, 4) each committed cluster's G_t = d x_t / d offset (motion = "commit")
         self.threshold, self.roughening, self.loss_nats = resample_threshold, roughening, loss_nats
         particles, unrestricted = restricted_draws(rng, means, covs, n, clear)
@@ -549,12 +534,9 @@ class ParticleBelief:
             self.pf.label = clusters(self.pf.particles, self.pf.weights, k)
             parts, mass = cluster_weights(self.pf.weights, self.pf.label, k)
             means, covs = part_moments(self.pf.particles, parts)
-            if self.choices > 1:  # the particles choose among their nearest clusters, as they join a reference's
-                reference = (means, covs, spread(self.pf.particles, self.pf.weights), mass > 0)
         else:
-            means, covs = reference[:2]
-        if reference is not None:
-            self.pf.label = join_clusters(self.pf.particles, reference[0], *reference[2:], self.choices, self.rng)
+            means, covs, scale, live = reference
+            self.pf.label = join_clusters(self.pf.particles, means, scale, live)
             mass = label_mass(self.pf.weights, self.pf.label, k)
         own = by_label(means, self.pf.label)  # (M, N, 6) each particle's cluster mean
         self.pf.offset = (self.pf.particles - own)[..., HORIZONTAL]
