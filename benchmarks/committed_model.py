@@ -1,9 +1,9 @@
 """The committed filter's motion model against the planned truth: how far each true path leaves
 the affine model of the cluster its start joins.
 
-    cd benchmarks && python committed_model.py [--worlds osm-medium] [--targets 8] [--clusters 16,64]
-                                               [--trials 20] [--steps 20] [--runs runs/tracking-first-commit]
-                                               [--out runs/committed-model] [--json PATH]
+    python benchmarks/committed_model.py [--worlds osm-medium] [--targets 8] [--clusters 16,64] [--choices 3]
+                                         [--trials 20] [--steps 20] [--runs runs/tracking-first-commit]
+                                         [--out runs/committed-model] [--json PATH]
 
 With ``motion = "commit"`` a particle whose start lies off its cluster's mean by ``d`` flies
 the cluster's plan plus the plan's gains times ``d`` (docs/methods/filter.md): exact while
