@@ -14,8 +14,8 @@ of the first step (:meth:`uavsim.sim.Simulation.first_commit`), and the script f
 start by the cluster's plan and gains and by every other cluster's, noise-free, for
 ``--steps`` steps, against the truth's own plan.  Per target-trial: the largest position gap
 over the steps with the joined cluster's model (``gap``), with the best of the start's
-``--choices`` nearest clusters' (what ``filter.cluster_choices`` lets particles there fly)
-and with the best cluster's.  With
+``--choices`` nearest clusters' (what particles there would fly if each chose among its
+nearest clusters: tried and not kept, docs/decisions.md) and with the best cluster's.  With
 ``--runs``, the campaign folder of ``tracking.py`` (``RUNS/WORLD-nN/optimized``, the same
 trials, the mission's own clusters) gives each target-trial's position NEES averaged over
 the second half, grouped by its gap (in the row of the mission's ``plan_clusters`` only).
@@ -43,7 +43,7 @@ def main() -> None:
     ap.add_argument("--worlds", default="osm-medium", help="worlds of towns.py, comma-separated")
     ap.add_argument("--targets", type=int, default=8)
     ap.add_argument("--clusters", default="16", help="plan_clusters values, comma-separated")
-    ap.add_argument("--choices", type=int, default=3, help="the nearest clusters a start may fly")
+    ap.add_argument("--choices", type=int, default=3, help="how many of a start's nearest clusters to try")
     ap.add_argument("--trials", type=int, default=20)
     ap.add_argument("--steps", type=int, default=20)
     ap.add_argument("--runs", help="tracking.py's --out of the same trials (optional)")
@@ -55,7 +55,7 @@ def measure(args) -> dict:
     rows = []
     for world in args.worlds.split(","):
         path = mission_file(world, args.targets, Path(args.out))
-        late, tracked = second_half_nees(args, world, path), load_mission(path).filter.plan_clusters
+        late, tracked = second_half_nees(args, path), load_mission(path).filter.plan_clusters
         for k in map(int, args.clusters.split(",")):
             m = load_mission(path, {"trials": args.trials, "steps": args.steps, "filter.plan_clusters": k})
             gap, near, best = gaps(m, args.choices)
@@ -93,7 +93,7 @@ def gaps(m, choices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return joined, near, best
 
 
-def second_half_nees(args, world: str, path: Path) -> np.ndarray | None:
+def second_half_nees(args, path: Path) -> np.ndarray | None:
     """``(trials, M)`` the position NEES over the second half of the optimized campaign of
     ``--runs`` (None without it)."""
     if not args.runs:
