@@ -120,6 +120,8 @@ BAD_MISSIONS = [
      "the chances must sum to 1, got 0.9"),
     (sub("noise_scales = [1.0]", 'noise_scales = [1.0]\nnoise_space = "start"'), "filter.noise_space",
      'committed plans (motion = "commit"), got motion = "replan"'),
+    (sub("noise_scales = [1.0]", "noise_scales = [1.0]\nroute_switch = 0.1"), "filter.route_switch",
+     'committed plans (motion = "commit"), got motion = "replan"'),
     (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "plkf"')
      .replace('motion = "replan"', 'motion = "commit"')
      .replace("clutter_rate = 0.5", "clutter_rate = 0.0"), "filter.motion", "needs particles to cluster"),

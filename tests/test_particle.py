@@ -368,6 +368,43 @@ def test_committed_prediction_is_the_cluster_force_plus_the_gain_on_the_offset()
     np.testing.assert_array_equal(b.pf.offset[0, 500:], 0.0)
 
 
+def test_route_switch_takes_a_nearest_cluster_and_flies_its_model():
+    """``route_switch = 1``: every particle takes one of its cluster's 3 nearest others,
+    drawn alike.  Reference starts at x = 0, 1, 3, 6, 20 and 0.5 (unit scale), the last
+    empty: cluster 0's nearest are 1, 2 and 3 (the empty one and x = 20 are never taken), each
+    drawn by a third of 3000 particles (within 4 binomial standard deviations).  Whatever it
+    draws, a particle keeps its start (cluster start plus offset) and the noise it gathered
+    (its state less its cluster's plan and gains at its start): it moves to where the new
+    cluster's model puts that start."""
+    n = 3000
+    b = ParticleBelief(np.random.default_rng(1), np.zeros((1, 6)), np.eye(6)[None], n, 0.5, 0.0, ("T1",),
+                       route_switch=1.0)
+    b.pf.particles[:] = 0.0
+    b.pf.particles[0, :, 0] = np.linspace(-0.4, 0.2, n)  # all in cluster 0's cell
+    means = np.zeros((1, 6, 6))
+    means[0, :, 0] = [0.0, 1.0, 3.0, 6.0, 20.0, 0.5]
+    live = np.array([[True] * 5 + [False]])
+    b.commit(6, (means, np.broadcast_to(np.eye(6), (1, 6, 6, 6)), np.ones((1, 4)), live))
+    assert (b.pf.label == 0).all()
+    np.testing.assert_array_equal(b.neighbours[0, :3], [[1, 2, 3], [0, 2, 3], [1, 0, 3]])
+    rng = np.random.default_rng(2)
+    b.nominal, b.sens = rng.normal(size=(1, 6, 6)) * 50.0, rng.normal(size=(1, 6, 6, 4))
+    b.pf.particles += rng.normal(size=b.pf.particles.shape)  # the noise gathered so far
+
+    def start_and_noise():
+        lab, off = b.pf.label[0], b.pf.offset[0]
+        model = b.nominal[0, lab] + np.einsum("nij,nj->ni", b.sens[0, lab], off)
+        return b.origins[0, lab][:, [0, 1, 3, 4]] + off, b.pf.particles[0] - model
+
+    before = start_and_noise()
+    b._switch_routes()
+    for got, want in zip(start_and_noise(), before):
+        np.testing.assert_allclose(got, want, atol=1e-9)
+    counts = np.bincount(b.pf.label[0], minlength=6)
+    assert counts[[0, 4, 5]].tolist() == [0, 0, 0]
+    np.testing.assert_array_less(np.abs(counts[1:4] / n - 1 / 3), 4 * math.sqrt(2 / 9 / n))
+
+
 def test_particle_filter_matches_kalman_on_linear_gaussian_toy():
     """Eq. (1) dynamics, measurement z = (p_x, p_y) + N(0, 25 I), ten steps.  With N
     particles and ESS >= N / 2 after each resampling, one step's Monte-Carlo error has

@@ -31,7 +31,9 @@ Each step t -> t+1:
    particle flies its cluster's plan open loop, its force corrected by the plan's response
    to its own start (:meth:`.guidance.Guidance.gains`), as a planned truth flies the plan
    made from its drawn start; when the plans' horizon ends the clouds are clustered and
-   planned again, as the truth re-plans (:meth:`Simulation._commit_controls`);
+   planned again, as the truth re-plans (:meth:`Simulation._commit_controls`); with
+   ``[filter] route_switch`` a particle may take a neighbouring cluster's plan instead
+   (:mod:`.belief.particle`);
 4. **UAV**: the policy moves (:mod:`.uav`: Eq. 12-13 grid moves, a manoeuvre, fixed
    sensors, no sensor), or takes the move given to :meth:`Simulation.step`;
 5. **truth moves**, then **sense and update** (Eq. 4, 9b-11) from the policy's observers;

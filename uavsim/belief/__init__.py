@@ -32,6 +32,9 @@ NOISE_SPACES = ("state", "start", "split")  # FilterConfig.noise_space
 # process-noise levels by motion (measured on the towns: docs/results/towns.md, committed plans): a
 # particle flying a committed plan with its gains rarely misses the truth's force; the lowest level fits those
 REPLAN_SCALES, COMMIT_SCALES = (0.03, 0.3), (0.003, 0.03, 0.3)
+# per step, the chance a committed particle takes a neighbouring cluster's plan (measured on the towns:
+# docs/results/towns.md, routes that switch)
+ROUTE_SWITCH = 0.1
 COMMIT_SHARES = (0.5, 0.4, 0.1)  # of COMMIT_SCALES: the highest, in the state with noise_space = "split", is rare
 
 
@@ -52,7 +55,9 @@ class FilterConfig:
     ``loss_nats``, ``reseed_share``: track-loss detection (:class:`.particle.ParticleBelief`)
     and recovery (:mod:`.recovery`); ``noise_scales``, ``scale_switch``: process-noise
     levels the particles jump between (:meth:`.particle.ParticleFilter.predict`; with
-    committed plans a third, lowest level by default); particle filters only.
+    committed plans a third, lowest level by default); particle filters only.  ``route_switch``:
+    a committed particle's chance per step to take a neighbouring cluster's plan
+    (:meth:`.particle.ParticleBelief.predict_committed`).
     ``keep_out``: the targets keep out of the obstacles
     (:meth:`.particle.ParticleBelief.keep_out`).  The paper's missions set ``motion =
     "replan"``, ``plan_clusters = 1``, ``loss_nats = 0``, ``noise_scales = [1.0]`` and
@@ -96,6 +101,10 @@ class FilterConfig:
                                  derived="16 for motion = commit, 2 for kind = particle, else 1",
                                  doc="plans per target: with motion = replan 1 from the mean or 2 one per half of the "
                                      "particle cloud; with motion = commit one per cluster")
+    route_switch: float = setting("route_switch", lo=0, hi=1, derived="0.1 for motion = commit, else 0",
+                                  doc="motion = commit: per step, the chance a particle takes a neighbouring "
+                                      "cluster's plan instead of its own, moved to where that plan puts its start "
+                                      "(the target took another route; the bearings weigh which fits)")
     keep_out: bool = setting("keep_out", kind="boolean", derived="true for kind = particle, else false",
                              doc="the filter knows the targets keep out of the obstacles, as the true ones do: its "
                                  "prior is N(mu_0, Sigma_0) restricted to the starts a true target may take, and a "
@@ -124,6 +133,11 @@ class FilterConfig:
         if self.noise_space != "state" and self.motion != "commit":
             raise SettingError("noise_space", f"moves the particles' starts along committed plans (motion = "
                                               f"\"commit\"), got motion = \"{self.motion}\"")
+        if self.route_switch is None:
+            object.__setattr__(self, "route_switch", ROUTE_SWITCH if self.motion == "commit" else 0.0)
+        if self.route_switch > 0 and self.motion != "commit":
+            raise SettingError("route_switch", f"switches particles between committed plans (motion = \"commit\"), "
+                                               f"got motion = \"{self.motion}\"")
         if self.motion == "commit" and self.kind != "particle":
             raise SettingError("motion", f"needs particles to cluster (kind = \"particle\"), got kind = "
                                          f"\"{self.kind}\"")
@@ -204,5 +218,5 @@ def make_belief(cfg: FilterConfig, rng: np.random.Generator, means: np.ndarray, 
     if cfg.kind == "particle":
         return ParticleBelief(rng, means, covs, cfg.particles, cfg.resample_threshold, cfg.roughening, names,
                               cfg.loss_nats, cfg.noise_scales, cfg.scale_switch, clear if cfg.keep_out else None,
-                              cfg.noise_shares, cfg.noise_space)
+                              cfg.noise_shares, cfg.noise_space, cfg.route_switch)
     return GaussianBelief(cfg.kind, means, covs, speed_max, names)

@@ -22,7 +22,10 @@
   of its new start and the noise contracts as the plans do (a planned truth's spread
   shrinks to its goal point by the horizon's end); ``"split"`` sends the highest level (the
   only one, if one) to the state, where it lets particles leave the plans' affine model (a
-  target on another route than its cluster's plan), and the others to the start.
+  target on another route than its cluster's plan), and the others to the start.  With
+  ``[filter] route_switch`` a particle may also take one of its cluster's nearest clusters'
+  plans, moved to where that plan puts its start (:meth:`ParticleBelief._switch_routes`):
+  the nearest cluster's plan is often not the route the truth from that start takes.
 * Update (Eq. 9b) with the measurement-set likelihood Eq. (10).  For uniform clutter
   ``p(phi) = 1 / (2 pi)`` and ``Psi(n; L) = e^-L L^n / n!`` the factorials cancel:
 
@@ -60,6 +63,7 @@ from . import recovery
 from .traces import inverse_cdf, pseudo_traces
 
 PRIOR_ROUNDS = 8  # rejection rounds of a restricted prior (restricted_draws)
+ROUTE_NEIGHBOURS = 3  # the clusters a particle may switch to (ParticleBelief._switch_routes)
 PRIOR_BATCH = 100  # a round draws at most this many times the particles per target
 
 
@@ -353,6 +357,19 @@ def join_clusters(particles: np.ndarray, means: np.ndarray, scale: np.ndarray, l
     return np.argmin(np.where(live[:, None, :], d, np.inf), axis=2)
 
 
+def cluster_neighbours(means: np.ndarray, scale: np.ndarray, live: np.ndarray) -> np.ndarray:
+    """``(M, k, min(k, ROUTE_NEIGHBOURS))`` each cluster's nearest other clusters by their
+    ``means (M, k, 6)`` in ``[x, y, vx, vy]`` scaled by ``scale (M, 4)``: the non-empty ones
+    (``live (M, k)``) first, then empty ones, then the cluster itself (when there are too few
+    others)."""
+    c = means[..., HORIZONTAL] / scale[:, None, :]
+    d = ((c[:, :, None] - c[:, None, :]) ** 2).sum(-1)  # (M, k, k)
+    d = np.where(live[:, None, :], d, np.inf)
+    k = means.shape[1]
+    d[:, np.arange(k), np.arange(k)] = np.nan  # argsort puts NaN after inf
+    return np.argsort(d, axis=2, kind="stable")[..., :ROUTE_NEIGHBOURS]
+
+
 def cluster_weights(weights: np.ndarray, label: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """``(parts (M, k, N), mass (M, k))``: the weights ``(M, N)`` of each of ``k`` clusters
     labelled ``label (M, N)`` (a split's mask is labels 0 and 1), renormalised within the
@@ -472,9 +489,11 @@ class ParticleBelief:
     def __init__(self, rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int,
                  resample_threshold: float, roughening: float, names: tuple[str, ...], loss_nats: float = 0.0,
                  noise_scales: np.ndarray | None = None, scale_switch: float = 0.0, clear=None,
-                 noise_shares: np.ndarray | None = None, noise_space: str = "state"):
-        self.rng, self.names, self.noise_space = rng, names, noise_space
+                 noise_shares: np.ndarray | None = None, noise_space: str = "state", route_switch: float = 0.0):
+        self.rng, self.names, self.noise_space, self.route_switch = rng, names, noise_space, route_switch
         self.sens = None  # (M, k, 6, 4) each committed cluster's G_t = d x_t / d offset (motion = "commit")
+        self.origins = self.nominal = None  # (M, k, 6) each committed cluster's mean at commit, and its plan's now
+        self.neighbours = None  # (M, k, ROUTE_NEIGHBOURS) each committed cluster's nearest others
         self.threshold, self.roughening, self.loss_nats = resample_threshold, roughening, loss_nats
         particles, unrestricted = restricted_draws(rng, means, covs, n, clear)
         self.pf = ParticleFilter.from_priors(rng, means, covs, n, noise_scales, scale_switch, particles, noise_shares)
@@ -534,12 +553,17 @@ class ParticleBelief:
             self.pf.label = clusters(self.pf.particles, self.pf.weights, k)
             parts, mass = cluster_weights(self.pf.weights, self.pf.label, k)
             means, covs = part_moments(self.pf.particles, parts)
+            scale = np.sqrt(np.einsum("mn,mni->mi", self.pf.weights, (self.pf.particles - self.pf.moments()[0][:, None])
+                                      [..., HORIZONTAL] ** 2))
+            live = mass > 0
         else:
             means, covs, scale, live = reference
             self.pf.label = join_clusters(self.pf.particles, means, scale, live)
             mass = label_mass(self.pf.weights, self.pf.label, k)
         own = by_label(means, self.pf.label)  # (M, N, 6) each particle's cluster mean
         self.pf.offset = (self.pf.particles - own)[..., HORIZONTAL]
+        self.origins, self.nominal = means.copy(), means.copy()
+        self.neighbours = cluster_neighbours(means, np.where(scale > 0, scale, 1.0), live)
         self.sens = np.zeros((*mass.shape, 6, 4))
         self.sens[..., HORIZONTAL, np.arange(4)] = 1.0
         return means, covs, mass
@@ -555,7 +579,9 @@ class ParticleBelief:
         (:meth:`uavsim.guidance.Guidance.gains`).  The process noise goes where
         ``noise_space`` says (module docstring): to the state, or the ``[x, y, vx, vy]`` part of
         it to the start offset with the state moved by :attr:`sens` times it, or split by level.
-        :attr:`sens` then steps on, ``G_{t+1} = A G_t + B K_t``."""
+        :attr:`sens` then steps on, ``G_{t+1} = A G_t + B K_t``, as does each cluster's plan from its
+        start (:attr:`nominal`); with :attr:`route_switch` some particles then change cluster
+        (:meth:`_switch_routes`)."""
         lab = self.pf.label
         q_chol, state_noise = dynamics.q_chol, None
         if self.noise_space != "state":
@@ -573,6 +599,30 @@ class ParticleBelief:
         if state_noise is not None:
             self.pf.particles += state_noise
         self.sens = dynamics.a @ self.sens + dynamics.b @ gains
+        self.nominal = self.nominal @ dynamics.a.T + forces @ dynamics.b.T
+        if self.route_switch > 0:
+            self._switch_routes()
+
+    def _switch_routes(self) -> None:
+        """Each particle, with chance :attr:`route_switch`, takes one of its cluster's
+        :data:`ROUTE_NEIGHBOURS` nearest clusters (:func:`cluster_neighbours`, drawn alike)
+        instead: its state moves from where its own cluster's plan and gains put its start now
+        to where the new cluster's put it, keeping the noise it gathered, as if the target had
+        taken that route from the start (a jump-Markov route model; the bearings weigh which
+        fits)."""
+        rows, cols = np.nonzero(self.rng.random(self.pf.label.shape) < self.route_switch)
+        if not rows.size:
+            return
+        old = self.pf.label[rows, cols]
+        new = self.neighbours[rows, old, self.rng.integers(0, self.neighbours.shape[2], rows.size)]
+        o_old = self.pf.offset[rows, cols]
+        o_new = o_old + (self.origins[rows, old] - self.origins[rows, new])[:, HORIZONTAL]
+
+        def model(c, o):
+            return self.nominal[rows, c] + np.einsum("sij,sj->si", self.sens[rows, c], o)
+
+        self.pf.particles[rows, cols] += model(new, o_new) - model(old, o_old)
+        self.pf.label[rows, cols], self.pf.offset[rows, cols] = new, o_new
 
     def _move_starts(self, step: np.ndarray) -> None:
         """Each particle's start offset moves by ``step (M, N, 4)`` and its state by its
