@@ -63,8 +63,8 @@ from . import recovery
 from .traces import inverse_cdf, pseudo_traces
 
 PRIOR_ROUNDS = 8  # rejection rounds of a restricted prior (restricted_draws)
-ROUTE_NEIGHBOURS = 3  # the clusters a particle may switch to (ParticleBelief._switch_routes)
 PRIOR_BATCH = 100  # a round draws at most this many times the particles per target
+ROUTE_NEIGHBOURS = 3  # the clusters a particle may switch to (ParticleBelief._switch_routes)
 
 
 class ParticleFilter:
