@@ -375,7 +375,8 @@ def test_route_switch_takes_a_nearest_cluster_and_flies_its_model():
     drawn by a third of 3000 particles (within 4 binomial standard deviations).  Whatever it
     draws, a particle keeps its start (cluster start plus offset) and the noise it gathered
     (its state less its cluster's plan and gains at its start): it moves to where the new
-    cluster's model puts that start."""
+    cluster's model puts that start.  A prediction steps the clusters' plan paths with the
+    particles, so a noise-free particle stays on its model."""
     n = 3000
     b = ParticleBelief(np.random.default_rng(1), np.zeros((1, 6)), np.eye(6)[None], n, 0.5, 0.0, ("T1",),
                        route_switch=1.0)
@@ -403,6 +404,13 @@ def test_route_switch_takes_a_nearest_cluster_and_flies_its_model():
     counts = np.bincount(b.pf.label[0], minlength=6)
     assert counts[[0, 4, 5]].tolist() == [0, 0, 0]
     np.testing.assert_array_less(np.abs(counts[1:4] / n - 1 / 3), 4 * math.sqrt(2 / 9 / n))
+    # the plans' paths step on with the particles: noise-free, a particle stays on its cluster's model
+    b.route_switch = 0.0
+    b.pf.particles = b.nominal[0, b.pf.label[0]][None] + np.einsum("nij,nj->ni", b.sens[0, b.pf.label[0]],
+                                                                   b.pf.offset[0])[None]
+    dyn = Dynamics(1.0, 0.2, 1300.0, np.diag([1e-20] * 6))
+    b.predict_committed(dyn, rng.uniform(-3000, 3000, (1, 6, 3)), rng.normal(size=(1, 6, 3, 4)) * 50.0)
+    np.testing.assert_allclose(start_and_noise()[1], 0.0, atol=1e-6)
 
 
 def test_particle_filter_matches_kalman_on_linear_gaussian_toy():
