@@ -76,8 +76,8 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "commit": ("optimized", {"filter.motion": "commit"}),  # clusters' plans made once, flown open loop
 }
 # overrides the baseline takes too: they change the truths (truth, guidance) or what the filter
-# knows without a measurement (keep_out, motion and its clusters)
-SHARED = ("truth", "guidance.", "filter.keep_out", "filter.motion", "filter.plan_clusters")
+# knows without a measurement (keep_out, motion, its clusters and their switching)
+SHARED = ("truth", "guidance.", "filter.keep_out", "filter.motion", "filter.plan_clusters", "filter.route_switch")
 
 
 def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, workers: int, resume: bool) -> dict:

@@ -301,16 +301,24 @@ def halves(particles: np.ndarray, weights: np.ndarray, iters: int = 10) -> np.nd
     return side[np.arange(len(z)), np.argmax(between, axis=1)]
 
 
+def centred(particles: np.ndarray, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``[x, y, vx, vy]`` of ``particles (M, N, 6)`` less their weighted mean ``(M, N, 4)``, and
+    their weighted standard deviations under ``weights (M, N)`` ``(M, 4)``, 1 where a cloud has
+    none: the scale of :func:`clusters` and of :func:`cluster_neighbours`."""
+    z = particles[..., HORIZONTAL]
+    z = z - np.einsum("mn,mni->mi", weights, z)[:, None, :]
+    sd = np.sqrt(np.einsum("mn,mni->mi", weights, z * z))
+    return z, np.where(sd > 0, sd, 1.0)
+
+
 def clusters(particles: np.ndarray, weights: np.ndarray, k: int, iters: int = 20) -> np.ndarray:
     """``(M, N)`` labels in ``range(k)``: each cloud in ``k`` clusters by weighted k-means on
     ``[x, y, vx, vy]`` scaled by its standard deviations (as :func:`halves`), Lloyd's
     iterations from the farthest-point rule (the weighted particle farthest from the mean,
     then each next the farthest from the centres so far).  Deterministic; a cluster may be
     empty (a cloud of fewer than ``k`` distinct weighted particles)."""
-    z = particles[..., HORIZONTAL]
-    z = z - np.einsum("mn,mni->mi", weights, z)[:, None, :]
-    sd = np.sqrt(np.einsum("mn,mni->mi", weights, z * z))
-    z /= np.where(sd > 0, sd, 1.0)[:, None, :]
+    z, sd = centred(particles, weights)
+    z /= sd[:, None, :]
     rows, live = np.arange(len(z)), weights > 0
     centres = np.empty((len(z), k, 4))
     near = (z * z).sum(-1)  # (M, N) squared distance to the nearest centre so far (the mean, at first)
@@ -341,9 +349,7 @@ def reference_clusters(particles: np.ndarray, k: int) -> tuple[np.ndarray, np.nd
     label = clusters(particles, weights, k)
     parts, mass = cluster_weights(weights, label, k)
     means, covs = part_moments(particles, parts)
-    z = particles[..., HORIZONTAL] - particles[..., HORIZONTAL].mean(axis=1, keepdims=True)
-    sd = np.sqrt((z * z).mean(axis=1))
-    return means, covs, np.where(sd > 0, sd, 1.0), mass > 0
+    return means, covs, centred(particles, weights)[1], mass > 0
 
 
 def join_clusters(particles: np.ndarray, means: np.ndarray, scale: np.ndarray, live: np.ndarray) -> np.ndarray:
@@ -553,9 +559,7 @@ class ParticleBelief:
             self.pf.label = clusters(self.pf.particles, self.pf.weights, k)
             parts, mass = cluster_weights(self.pf.weights, self.pf.label, k)
             means, covs = part_moments(self.pf.particles, parts)
-            scale = np.sqrt(np.einsum("mn,mni->mi", self.pf.weights, (self.pf.particles - self.pf.moments()[0][:, None])
-                                      [..., HORIZONTAL] ** 2))
-            live = mass > 0
+            scale, live = centred(self.pf.particles, self.pf.weights)[1], mass > 0
         else:
             means, covs, scale, live = reference
             self.pf.label = join_clusters(self.pf.particles, means, scale, live)
@@ -563,7 +567,7 @@ class ParticleBelief:
         own = by_label(means, self.pf.label)  # (M, N, 6) each particle's cluster mean
         self.pf.offset = (self.pf.particles - own)[..., HORIZONTAL]
         self.origins, self.nominal = means.copy(), means.copy()
-        self.neighbours = cluster_neighbours(means, np.where(scale > 0, scale, 1.0), live)
+        self.neighbours = cluster_neighbours(means, scale, live)
         self.sens = np.zeros((*mass.shape, 6, 4))
         self.sens[..., HORIZONTAL, np.arange(4)] = 1.0
         return means, covs, mass
