@@ -122,6 +122,8 @@ BAD_MISSIONS = [
      'committed plans (motion = "commit"), got motion = "replan"'),
     (sub("noise_scales = [1.0]", "noise_scales = [1.0]\nroute_switch = 0.1"), "filter.route_switch",
      'committed plans (motion = "commit"), got motion = "replan"'),
+    (sub("noise_scales = [1.0]", "noise_scales = [1.0]\nroute_probes = 32"), "filter.route_probes",
+     'committed plans (motion = "commit"), got motion = "replan"'),
     (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "plkf"')
      .replace('motion = "replan"', 'motion = "commit"')
      .replace("clutter_rate = 0.5", "clutter_rate = 0.0"), "filter.motion", "needs particles to cluster"),

@@ -160,6 +160,23 @@ def test_loss_detection_off_never_declares():
     assert not b.lost.any() and b.cusum[0] == 0.0
 
 
+def test_a_cloud_collapsed_to_a_point_is_declared_lost():
+    """A cloud whose particles are all one point (a resample copied one particle) claims to
+    know the position exactly and the bearings cannot widen it: after one scan of a target
+    the cloud sits on, it is declared lost and the event names it; a cloud 0.01 m wide
+    (above the 1 mm limit) is not.  Without loss detection it is reported only."""
+    from uavsim.sensing import observe
+
+    s, truth, observer = BearingModel(math.radians(1.0), 0.95, 1.0), np.array([[0.0, 400.0, 0.0]]), np.zeros(3)
+    for spread, nats, lost in ((0.0, 10.0, True), (0.01, 10.0, False), (0.0, 0.0, False)):
+        b = _belief_on(truth[0, :2], 5.0, nats)
+        b.pf.particles[0] = truth[0, 0] + np.r_[0.0, 400.0, 0.0, 0.0, 0.0, 0.0]
+        b.pf.particles[0, :, 0] += spread * np.random.default_rng(3).standard_normal(400)
+        events = b.update([observe(np.random.default_rng(4), s, truth, observer)], observer[None], s)
+        assert b.lost[0] == lost
+        assert any("collapsed to a point" in e for e in events) == (spread == 0.0)
+
+
 def test_reseed_keeps_the_cloud_share_and_weighs_all_alike():
     """Re-seeding 100 of 400 particles: the 300 kept are a systematic resample of the
     weighted cloud (each particle floor(300 w) or ceil(300 w) times), the 100 fresh ones

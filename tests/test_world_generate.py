@@ -47,11 +47,13 @@ def test_generated_missions_carry_the_paper_numbers(suite):
         # made once (the paper re-plans from the mean every step, which lost targets on
         # generated worlds), lost tracks are detected and re-seeded, particles carry one of
         # three process-noise levels (the two lower ones moving their starts), may switch to a
-        # neighbouring cluster's route, and they keep out of the obstacles (docs/methods/filter.md)
+        # neighbouring cluster's route (and routes probed at the first step), and they keep out of
+        # the obstacles (docs/methods/filter.md)
         assert m.guidance == paper.guidance
         assert m.filter == replace(paper.filter, motion="commit", plan_clusters=16, loss_nats=10.0,
                                    noise_scales=(0.003, 0.03, 0.3), noise_shares=(0.5, 0.4, 0.1),
-                                   noise_space="split", route_switch=0.1, keep_out=True)
+                                   noise_space="split", route_switch=0.1, route_probes=32,
+                                   keep_out=True)
         assert (m.uav.step, m.uav.n_theta, m.uav.n_r, m.steps) == (paper.uav.step, paper.uav.n_theta,
                                                                     paper.uav.n_r, paper.steps)
         for t in m.targets:

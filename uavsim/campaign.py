@@ -356,6 +356,8 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
         del data["filter"]["noise_space"]
     if not data["filter"]["route_switch"]:  # particles that keep their cluster: as before the setting existed
         del data["filter"]["route_switch"]
+    if not data["filter"]["route_probes"]:  # the first step's clusters only: as before the setting existed
+        del data["filter"]["route_probes"]
     if not data["filter"]["keep_out"]:  # particles that may cross obstacles: as before the setting existed
         del data["filter"]["keep_out"]
     if data["filter"]["motion"] == "replan":  # re-planned every step: as before the setting existed

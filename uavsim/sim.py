@@ -26,7 +26,8 @@ Each step t -> t+1:
    With ``[filter] motion = "commit"`` nothing is re-planned: at the first step each cloud
    is split into ``plan_clusters`` clusters (:func:`.belief.particle.clusters`; those of a
    reference cloud drawn from the prior, the same in every trial, which the particles join:
-   :meth:`Simulation.first_commit`), each
+   :meth:`Simulation.first_commit`; with ``[filter] route_probes`` a cluster is added for
+   each route a probe start takes that no cluster's model follows), each
    cluster is planned once from its mean (warm-started from the plan at the prior), and a
    particle flies its cluster's plan open loop, its force corrected by the plan's response
    to its own start (:meth:`.guidance.Guidance.gains`), as a planned truth flies the plan
@@ -60,6 +61,7 @@ from .belief.particle import reference_clusters, restricted_draws
 from .guidance import Guidance, Plan
 from .mission import Mission
 from .sensing import Scan
+from .targets import HORIZONTAL
 from .truth import Truth, clear_starts
 from .uav import make_policy
 from .world.routes import GoalField
@@ -68,6 +70,7 @@ __all__ = ["Simulation", "StepInfo", "target_bearings"]  # the public interface 
 
 STAGES = ("guidance", "filter", "planner", "truth", "total")  # seconds per step; "planner": the policy's act
 MIN_HALF = 0.01  # a cloud with a half of less weight than this moves by the plan from its mean
+MAX_ROUTE_CLUSTERS = 8  # clusters a target's route probes may add (Simulation._probe_routes)
 REFERENCE_SEED = 0  # the stream of the cloud the first step's clusters are drawn from (Simulation.first_commit)
 
 
@@ -292,14 +295,14 @@ class Simulation:
         age = self.t - self._committed_at
         if self.t == 0:
             reference, self.committed, self._gains, notes = self.first_commit(k)
-            mass = self.belief.commit(k, reference)[2]
+            mass = self.belief.commit(reference[0].shape[1], reference, reference[0].shape[1] - k)[2]
             events += notes
         elif age >= len(self.committed[0][0].controls):
             means, covs, mass = self.belief.commit(k)
             self.committed, self._gains = self._cluster_plans(means, covs, [None] * len(means), events)
             self._committed_at, age = self.t, 0
         else:
-            mass = self.belief.cluster_mass(k)
+            mass = self.belief.cluster_mass(len(self.committed[0]))
         self.plans = [_from_step(plans[int(np.argmax(w))], age) for plans, w in zip(self.committed, mass)]
         return np.array([[p.controls[age] for p in plans] for plans in self.committed]), self._gains[:, :, age]
 
@@ -308,11 +311,13 @@ class Simulation:
         drawn from the priors with :data:`REFERENCE_SEED`, restricted as the belief's is), their
         plans (warm-started from the plans at the priors), gains and events: the same in every
         trial, so made once and kept with the guidance (a campaign's worker keeps its guidance
-        for all its trials).  Each trial's particles join these clusters (their cells)."""
+        for all its trials).  Each trial's particles join these clusters (their cells).  With
+        ``[filter] route_probes`` the reference cloud's first starts are planned too, and each
+        whose plan no cluster's model follows becomes a cluster (:meth:`_probe_routes`)."""
         m = self.m
         means0, covs0 = np.array([t.mean0 for t in m.targets]), np.array([t.cov0 for t in m.targets])
-        key = ("first commit", k, m.filter.particles, m.filter.keep_out, means0.tobytes(), covs0.tobytes(),
-               np.array(m.goals).tobytes())
+        key = ("first commit", k, m.filter.particles, m.filter.keep_out, m.filter.route_probes, means0.tobytes(),
+               covs0.tobytes(), np.array(m.goals).tobytes())
         if key not in self.guidance.kept:
             clear = self._clear if m.filter.keep_out else None
             cloud = restricted_draws(np.random.default_rng(REFERENCE_SEED), means0, covs0, m.filter.particles, clear)[0]
@@ -320,10 +325,63 @@ class Simulation:
             events: list[str] = []
             plans, gains = self._cluster_plans(*reference[:2], [self._prior_plan(j) for j in range(len(m.targets))],
                                                events)
+            if m.filter.route_probes:
+                reference, plans, gains = self._probe_routes(cloud[:, :m.filter.route_probes], reference, plans, gains)
             for a in (*reference, gains):
                 a.flags.writeable = False  # shared by every trial that keeps this guidance
             self.guidance.kept[key] = (reference, plans, gains, events)
         return self.guidance.kept[key]
+
+    def _probe_routes(self, probes: np.ndarray, reference: tuple, plans: list[list[Plan]], gains: np.ndarray
+                      ) -> tuple[tuple, list[list[Plan]], np.ndarray]:
+        """The first step's clusters with a cluster added for each route they miss.  Each of
+        ``probes (M, P, 6)`` (starts drawn as the reference cloud's) is planned as a truth
+        from it would be; where its plan's positions leave every cluster's model (the
+        cluster's plan plus its gains times the probe's offset, :func:`model_positions`) by
+        more than :func:`route_gap` at some step, the probe becomes a cluster: its state the
+        mean, its plan, the gains there, the nearest cluster's covariance.  Probes a cluster
+        added before fits are skipped; at most :data:`MAX_ROUTE_CLUSTERS` a target.  Every
+        target's clusters are padded with empty ones (not live, never joined) to the most
+        any target has.  ``reference``, ``plans``, ``gains``: as :meth:`first_commit` makes them."""
+        means, covs, scale, live = reference
+        added = [self._route_clusters(j, starts, means[j][live[j]], covs[j][live[j]],
+                                      [p for p, on in zip(plans[j], live[j]) if on], gains[j][live[j]], scale[j])
+                 for j, starts in enumerate(probes)]
+        extra = max(map(len, added))
+        if not extra:
+            return reference, plans, gains
+        blank = [(means[j, 0], covs[j, 0], plans[j][0], np.zeros_like(gains[j, 0])) for j in range(len(means))]
+        cols = [list(zip(*(row + [blank[j]] * (extra - len(row))))) for j, row in enumerate(added)]  # M x 4 lists
+        more = [np.array([c[i] for c in cols]) for i in (0, 1, 3)]  # (M, extra, ...) means, covs, gains
+        live = np.concatenate([live, np.arange(extra) < np.array([len(row) for row in added])[:, None]], axis=1)
+        return ((np.concatenate([means, more[0]], axis=1), np.concatenate([covs, more[1]], axis=1), scale, live),
+                [p + list(c[2]) for p, c in zip(plans, cols)], np.concatenate([gains, more[2]], axis=1))
+
+    def _route_clusters(self, j: int, starts: np.ndarray, mu: np.ndarray, cv: np.ndarray, pl: list[Plan],
+                        gn: np.ndarray, scale: np.ndarray) -> list[tuple]:
+        """Target j's clusters added for ``starts (P, 6)`` (:meth:`_probe_routes`), each
+        ``(mean (6,), cov (6, 6), plan, gains (T, 3, 4))``, given its live clusters' means
+        ``mu (K, 6)``, covariances ``cv``, plans ``pl`` and gains ``gn (K, T, 3, 4)`` and the
+        clustering's ``scale (4,)``."""
+        added: list[tuple] = []
+        for x in starts:
+            near = int(np.argmin(((mu - x)[:, HORIZONTAL] ** 2 / scale**2).sum(1)))
+            own = self.guidance.plan(x, cv[near], self.m.goals[j], warm=pl[near], step=self.t, shift=0)
+            if own.status != "optimal" or own.moved_start or len(own.controls) != len(pl[0].controls):
+                continue
+            flown = model_positions(x, mu, np.array([p.controls for p in pl]), gn, self.m.dynamics)
+            if np.linalg.norm(flown - own.means[None, :, :2], axis=2).max(1).min() <= route_gap(scale):
+                continue
+            try:
+                g = self.guidance.gains(x, self.m.goals[j], own, self.t)[0]
+            except RuntimeError:  # no plan from a start moved by the sensitivity's step
+                continue
+            added.append((x, cv[near], own, g))
+            mu, cv, gn = np.vstack([mu, x[None]]), np.vstack([cv, cv[near][None]]), np.vstack([gn, g[None]])
+            pl = pl + [own]
+            if len(added) == MAX_ROUTE_CLUSTERS:
+                break
+        return added
 
     def _cluster_plans(self, means: np.ndarray, covs: np.ndarray, warm: list[Plan | None], events: list[str]
                        ) -> tuple[list[list[Plan]], np.ndarray]:
@@ -361,6 +419,27 @@ class Simulation:
             return previous
         miss = [np.hypot(*(p.means[0, :2] - start[:2])) for p in last]
         return last[int(np.argmin(miss))]
+
+
+def model_positions(start: np.ndarray, means: np.ndarray, controls: np.ndarray, gains: np.ndarray, dynamics
+                    ) -> np.ndarray:
+    """``(K, T, 2)`` the positions ``start (6,)`` flies under each of K committed clusters'
+    models: the cluster's plan ``controls (K, T, 3)`` plus its ``gains (K, T, 3, 4)`` times the
+    start's ``[x, y, vx, vy]`` offset from the cluster's mean ``means (K, 6)``, noise-free
+    (Eq. 1), as a committed particle without noise flies."""
+    d = start[HORIZONTAL] - means[:, HORIZONTAL]  # (K, 4)
+    x, out = np.repeat(start[None], len(means), axis=0), np.empty((*controls.shape[:2], 2))
+    for t in range(controls.shape[1]):
+        x = x @ dynamics.a.T + (controls[:, t] + np.einsum("kij,kj->ki", gains[:, t], d)) @ dynamics.b.T
+        out[:, t] = x[:, :2]
+    return out
+
+
+def route_gap(scale: np.ndarray) -> float:
+    """The gap (m) past which a start's plan is a route its cluster's model misses
+    (:meth:`Simulation._probe_routes`): the prior's position standard deviation, the root
+    mean square of ``scale (4,)``'s x and y (a cloud's spread)."""
+    return float(np.sqrt((scale[0] ** 2 + scale[1] ** 2) / 2.0))
 
 
 def _from_step(plan: Plan, age: int) -> Plan:

@@ -35,6 +35,7 @@ REPLAN_SCALES, COMMIT_SCALES = (0.03, 0.3), (0.003, 0.03, 0.3)
 # per step, the chance a committed particle takes a neighbouring cluster's plan (measured on the towns:
 # docs/results/towns.md, routes that switch)
 ROUTE_SWITCH = 0.1
+ROUTE_PROBES = 32
 COMMIT_SHARES = (0.5, 0.4, 0.1)  # of COMMIT_SCALES: the highest, in the state with noise_space = "split", is rare
 
 
@@ -57,7 +58,9 @@ class FilterConfig:
     levels the particles jump between (:meth:`.particle.ParticleFilter.predict`; with
     committed plans a third, lowest level by default); particle filters only.  ``route_switch``:
     a committed particle's chance per step to take a neighbouring cluster's plan
-    (:meth:`.particle.ParticleBelief.predict_committed`).
+    (:meth:`.particle.ParticleBelief.predict_committed`); ``route_probes``: prior starts
+    planned at the first step to find routes the clusters' plans miss
+    (:meth:`uavsim.sim.Simulation.first_commit`).
     ``keep_out``: the targets keep out of the obstacles
     (:meth:`.particle.ParticleBelief.keep_out`).  The paper's missions set ``motion =
     "replan"``, ``plan_clusters = 1``, ``loss_nats = 0``, ``noise_scales = [1.0]`` and
@@ -105,6 +108,11 @@ class FilterConfig:
                                   doc="motion = commit: per step, the chance a particle takes a neighbouring "
                                       "cluster's plan instead of its own, moved to where that plan puts its start "
                                       "(the target took another route; the bearings weigh which fits)")
+    route_probes: int = setting("route_probes", kind="integer", lo=0, hi=1000,
+                                derived="32 for motion = commit, else 0",
+                                doc="motion = commit: starts drawn from the prior and planned at the first step; one "
+                                    "whose plan no cluster's plan and gains reproduce (a route none of them takes) "
+                                    "becomes a cluster of its own (uavsim.sim.Simulation.first_commit)")
     keep_out: bool = setting("keep_out", kind="boolean", derived="true for kind = particle, else false",
                              doc="the filter knows the targets keep out of the obstacles, as the true ones do: its "
                                  "prior is N(mu_0, Sigma_0) restricted to the starts a true target may take, and a "
@@ -137,6 +145,11 @@ class FilterConfig:
             object.__setattr__(self, "route_switch", ROUTE_SWITCH if self.motion == "commit" else 0.0)
         if self.route_switch > 0 and self.motion != "commit":
             raise SettingError("route_switch", f"switches particles between committed plans (motion = \"commit\"), "
+                                               f"got motion = \"{self.motion}\"")
+        if self.route_probes is None:
+            object.__setattr__(self, "route_probes", ROUTE_PROBES if self.motion == "commit" else 0)
+        if self.route_probes > 0 and self.motion != "commit":
+            raise SettingError("route_probes", f"adds clusters to committed plans (motion = \"commit\"), "
                                                f"got motion = \"{self.motion}\"")
         if self.motion == "commit" and self.kind != "particle":
             raise SettingError("motion", f"needs particles to cluster (kind = \"particle\"), got kind = "

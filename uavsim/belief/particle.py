@@ -64,6 +64,7 @@ from .traces import inverse_cdf, pseudo_traces
 
 PRIOR_ROUNDS = 8  # rejection rounds of a restricted prior (restricted_draws)
 PRIOR_BATCH = 100  # a round draws at most this many times the particles per target
+COLLAPSED_M = 1e-3  # m: a cloud with a smaller position spread has collapsed (ParticleBelief._collapsed)
 ROUTE_NEIGHBOURS = 3  # the clusters a particle may switch to (ParticleBelief._switch_routes)
 
 
@@ -547,14 +548,18 @@ class ParticleBelief:
                           + " (particles inside obstacles)")
         return events
 
-    def commit(self, k: int, reference: tuple | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def commit(self, k: int, reference: tuple | None = None, probed: int = 0
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Split each cloud in ``k`` clusters (:func:`clusters`), which the particles keep
         (resampling copies a particle's cluster and offset); each particle's offset is its
         ``[x, y, vx, vy]`` less its cluster's mean.  Returns each cluster's mean ``(M, k, 6)``,
         covariance ``(M, k, 6, 6)`` and weight ``(M, k)`` (an empty cluster has the cloud's
         mean and covariance and weight 0).  ``reference``: the clusters of another cloud
         (:func:`reference_clusters`), which the particles join (:func:`join_clusters`); their
-        means and covariances are returned, and the offsets are from those means."""
+        means and covariances are returned, and the offsets are from those means.  ``probed``:
+        the last clusters of ``reference`` were added for routes the others miss
+        (:meth:`uavsim.sim.Simulation.first_commit`); their particles may switch routes, but
+        none switches to them (:meth:`_switch_routes`)."""
         if reference is None:
             self.pf.label = clusters(self.pf.particles, self.pf.weights, k)
             parts, mass = cluster_weights(self.pf.weights, self.pf.label, k)
@@ -567,7 +572,7 @@ class ParticleBelief:
         own = by_label(means, self.pf.label)  # (M, N, 6) each particle's cluster mean
         self.pf.offset = (self.pf.particles - own)[..., HORIZONTAL]
         self.origins, self.nominal = means.copy(), means.copy()
-        self.neighbours = cluster_neighbours(means, scale, live)
+        self.neighbours = cluster_neighbours(means, scale, live & (np.arange(live.shape[1]) < live.shape[1] - probed))
         self.sens = np.zeros((*mass.shape, 6, 4))
         self.sens[..., HORIZONTAL, np.arange(4)] = 1.0
         return means, covs, mass
@@ -613,7 +618,9 @@ class ParticleBelief:
         instead: its state moves from where its own cluster's plan and gains put its start now
         to where the new cluster's put it, keeping the noise it gathered, as if the target had
         taken that route from the start (a jump-Markov route model; the bearings weigh which
-        fits)."""
+        fits).  A cluster added by the route probes is never switched to (:meth:`commit`): its
+        route lies far from its neighbours' by construction, and a jump onto it moves a
+        particle by the whole difference."""
         rows, cols = np.nonzero(self.rng.random(self.pf.label.shape) < self.route_switch)
         if not rows.size:
             return
@@ -655,7 +662,23 @@ class ParticleBelief:
         resampled = self.pf.resample(self.rng, self.threshold, self.roughening)
         if resampled.any():
             events.append("resampled " + ", ".join(self.names[j] for j in np.flatnonzero(resampled)))
-        return events
+        return events + self._collapsed()
+
+    def _collapsed(self) -> list[str]:
+        """A cloud whose weighted position spread is below :data:`COLLAPSED_M` has collapsed to
+        a point (resampling copied one particle whose noise had contracted with its plan, or
+        keep-out left one particle clear): it claims to know the position exactly and cannot
+        recover by itself.  With track-loss detection it is declared lost (:attr:`lost`, the
+        evidence set past ``loss_nats``) and re-seeded; either way an event says so."""
+        xy = self.pf.particles[..., :2]
+        dev = xy - np.einsum("mn,mni->mi", self.pf.weights, xy)[:, None, :]
+        spread = np.sqrt(np.einsum("mn,mn->m", self.pf.weights, (dev * dev).sum(-1)))
+        rows = np.flatnonzero(spread < COLLAPSED_M)
+        if self.loss_nats > 0:
+            self.cusum[rows] = np.maximum(self.cusum[rows], self.loss_nats + 1.0)
+        then = "declared lost" if self.loss_nats > 0 else "loss detection off (loss_nats = 0)"
+        return [f"{self.names[j]}: particle cloud collapsed to a point (position spread {spread[j]:.1e} m); {then}"
+                for j in rows]
 
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
         return self.pf.moments()
