@@ -35,6 +35,8 @@ REPLAN_SCALES, COMMIT_SCALES = (0.03, 0.3), (0.003, 0.03, 0.3)
 # per step, the chance a committed particle takes a neighbouring cluster's plan (measured on the towns:
 # docs/results/towns.md, routes that switch)
 ROUTE_SWITCH = 0.1
+# prior starts a target planned at the first step to find routes the committed clusters miss (a route held by
+# 5% of the prior is found with chance 1 - 0.95^32 = 0.81; docs/results/towns.md, routes the clusters miss)
 ROUTE_PROBES = 32
 COMMIT_SHARES = (0.5, 0.4, 0.1)  # of COMMIT_SCALES: the highest, in the state with noise_space = "split", is rare
 
