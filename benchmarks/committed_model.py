@@ -32,7 +32,7 @@ from towns import mission_file
 from uavsim.belief.particle import join_clusters
 from uavsim.campaign import kept_guidance, load_trials, one_blas_thread, trial_seeds
 from uavsim.config import load_mission
-from uavsim.sim import Simulation
+from uavsim.sim import Simulation, model_positions
 from uavsim.targets import HORIZONTAL
 
 GAPS = (10.0, 30.0)  # m: the classes a target-trial's gap is counted in
@@ -69,7 +69,6 @@ def gaps(m, choices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``(trials, M)`` each truth's largest gap (m) over the mission's steps to its joined
     cluster's model, to the best of its ``choices`` nearest clusters' and to the best cluster's."""
     guidance, steps = kept_guidance(m), m.steps
-    a, b = m.dynamics.a, m.dynamics.b
     joined, near, best = (np.zeros((m.trials, len(m.targets))) for _ in range(3))
     with one_blas_thread():
         for i, seed in enumerate(trial_seeds(m.seed, m.trials)):
@@ -82,13 +81,9 @@ def gaps(m, choices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             order = np.argsort(np.where(live, dist, np.inf), axis=1)[:, :choices]  # (M, choices)
             for j, x0 in enumerate(start):
                 truth = sim.truth.plans[j].means[:steps, :2]
-                x = np.repeat(x0[None], means.shape[1], axis=0)  # (k, 6) the start under every cluster
-                d = x0[HORIZONTAL] - means[j][:, HORIZONTAL]  # (k, 4)
-                gap = np.zeros(means.shape[1])
-                for t in range(steps):
-                    u = np.array([p.controls[t] for p in plans[j]]) + np.einsum("kij,kj->ki", gains[j, :, t], d)
-                    x = x @ a.T + u @ b.T
-                    gap = np.maximum(gap, np.linalg.norm(x[:, :2] - truth[t], axis=1))
+                controls = np.array([p.controls[:steps] for p in plans[j]])  # (k, steps, 3)
+                flown = model_positions(x0, means[j], controls, gains[j, :, :steps], m.dynamics)
+                gap = np.linalg.norm(flown - truth, axis=2).max(axis=1)  # (k,) the start under every cluster
                 joined[i, j], near[i, j], best[i, j] = gap[label[j]], gap[order[j]].min(), gap.min()
     return joined, near, best
 

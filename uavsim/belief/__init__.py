@@ -138,21 +138,9 @@ class FilterConfig:
                                                f"got {len(self.noise_shares)}")
         if abs(sum(self.noise_shares) - 1.0) > 1e-6:
             raise SettingError("noise_shares", f"the chances must sum to 1, got {sum(self.noise_shares):.6g}")
-        if self.noise_space is None:
-            object.__setattr__(self, "noise_space", "split" if self.motion == "commit" else "state")
-        if self.noise_space != "state" and self.motion != "commit":
-            raise SettingError("noise_space", f"moves the particles' starts along committed plans (motion = "
-                                              f"\"commit\"), got motion = \"{self.motion}\"")
-        if self.route_switch is None:
-            object.__setattr__(self, "route_switch", ROUTE_SWITCH if self.motion == "commit" else 0.0)
-        if self.route_switch > 0 and self.motion != "commit":
-            raise SettingError("route_switch", f"switches particles between committed plans (motion = \"commit\"), "
-                                               f"got motion = \"{self.motion}\"")
-        if self.route_probes is None:
-            object.__setattr__(self, "route_probes", ROUTE_PROBES if self.motion == "commit" else 0)
-        if self.route_probes > 0 and self.motion != "commit":
-            raise SettingError("route_probes", f"adds clusters to committed plans (motion = \"commit\"), "
-                                               f"got motion = \"{self.motion}\"")
+        self._commit_only("noise_space", "split", "state", "moves the particles' starts along committed plans")
+        self._commit_only("route_switch", ROUTE_SWITCH, 0.0, "switches particles between committed plans")
+        self._commit_only("route_probes", ROUTE_PROBES, 0, "adds clusters to committed plans")
         if self.motion == "commit" and self.kind != "particle":
             raise SettingError("motion", f"needs particles to cluster (kind = \"particle\"), got kind = "
                                          f"\"{self.kind}\"")
@@ -169,6 +157,14 @@ class FilterConfig:
             object.__setattr__(self, "keep_out", self.kind == "particle")
         if self.keep_out and self.kind != "particle":
             raise SettingError("keep_out", f"needs a particle filter (kind = \"particle\"), got kind = \"{self.kind}\"")
+
+    def _commit_only(self, key: str, committed, off, does: str) -> None:
+        """A setting of committed plans: unset, ``committed`` with ``motion = "commit"`` and
+        ``off`` otherwise; set to anything but ``off`` without committed plans, refused."""
+        if getattr(self, key) is None:
+            object.__setattr__(self, key, committed if self.motion == "commit" else off)
+        if getattr(self, key) != off and self.motion != "commit":
+            raise SettingError(key, f"{does} (motion = \"commit\"), got motion = \"{self.motion}\"")
 
 
 class Belief(Protocol):

@@ -670,9 +670,8 @@ class ParticleBelief:
         keep-out left one particle clear): it claims to know the position exactly and cannot
         recover by itself.  With track-loss detection it is declared lost (:attr:`lost`, the
         evidence set past ``loss_nats``) and re-seeded; either way an event says so."""
-        xy = self.pf.particles[..., :2]
-        dev = xy - np.einsum("mn,mni->mi", self.pf.weights, xy)[:, None, :]
-        spread = np.sqrt(np.einsum("mn,mn->m", self.pf.weights, (dev * dev).sum(-1)))
+        cov = weighted_moments(self.pf.particles[..., :2], self.pf.weights)[1]
+        spread = np.sqrt(np.trace(cov, axis1=1, axis2=2))
         rows = np.flatnonzero(spread < COLLAPSED_M)
         if self.loss_nats > 0:
             self.cusum[rows] = np.maximum(self.cusum[rows], self.loss_nats + 1.0)
