@@ -121,3 +121,57 @@ def test_the_weighted_policy_flies_to_its_best_score_in_the_closed_loop():
         info = sim.step()
         np.testing.assert_allclose(info.scores, want, rtol=1e-12)
         np.testing.assert_array_equal(info.uav, info.candidates[np.argmin(info.scores)])
+
+
+class _Traces:
+    """Two targets for the ``seek`` policy, their traces set by hand: target 0 below the UAV
+    (trace 100; a move north leaves 88, any other 90), target 1 ``far`` metres east (trace
+    1000; a bearing from within 6 m of it leaves ``left``)."""
+
+    def __init__(self, uav, far, left):
+        self.mean = np.zeros((2, 6))
+        self.mean[0, :2], self.mean[1, :2] = uav[:2], uav[:2] + [far, 0.0]
+        self.cov = np.stack([np.diag([50.0, 50, 0, 0, 0, 0]), np.diag([500.0, 500, 0, 0, 0, 0])])
+        self.uav, self.left = np.asarray(uav, float), left
+
+    def moments(self):
+        return self.mean.copy(), self.cov.copy()
+
+    def traces(self, c, sensor):
+        near = np.where(c[:, 1] > self.uav[1] + 1.0, 88.0, 90.0)
+        above = np.hypot(*(c[:, :2] - self.mean[1, :2]).T) < 6.0
+        return np.column_stack([near, np.where(above, self.left, 1000.0)])
+
+
+def test_seek_flies_to_a_far_target_when_its_bearing_pays_more_a_step():
+    """Eq. (13)'s best move (north) gains 1100 - 1088 = 12 now.  From target 1's vantage, 5 m
+    short of it, 600 m east, a bearing would leave 100 of its 1000: it gains 900 over
+    ceil(595 / 20) = 30 steps of flight, 30 a step > 12, so ``seek`` takes the move nearest it: ring 4 due east
+    (lam = 4, kap = 15, row 1 + 3 x 15 + 14 = 60).  Leaving 800 (200 over 30 steps, 6.7 a
+    step) it keeps Eq. (13)'s move (row 1: the moves north tie, the lowest index wins); so it
+    does with target 1 within one step, 15 m east, where Eq. (13)'s move is the first within
+    6 m of it (ring 2 due east, row 1 + 15 + 14 = 30).  With a forecast it heads where the
+    plan puts target 1 on arrival (due south: ring 4 at 264 deg, the nearest grid angle)."""
+    from uavsim.uav import Seek
+
+    m = load_mission(PAPER)
+    pos = np.array([200.0, 150.0, 40.0])  # clear of the paper's obstacles, every move admissible
+    policy = Seek(m)
+
+    def move(far, left, forecast=None):
+        policy.position = pos.copy()
+        cands, scores, best = policy.choose(_Traces(pos, far, left), forecast)
+        return best, cands[best] - pos
+
+    best, step = move(600.0, 100.0)
+    assert best == 60
+    np.testing.assert_allclose(step, [20.0, 0.0, 0.0], atol=1e-9)
+    best, step = move(600.0, 800.0)
+    assert best == 1  # Eq. (13)'s: the moves north tie at 88, the lowest index (ring 1 at 24 deg) wins
+    best, step = move(15.0, 100.0)
+    assert best == 30  # Eq. (13)'s: rings 2 and 3 due east tie at 190, the lower index wins
+    plan = np.zeros((40, 6))
+    plan[:, :2] = pos[:2] + [600.0, 0.0]
+    plan[30:, :2] = pos[:2] + [0.0, -600.0]  # on arrival (step 30) target 1 is due south
+    best, step = move(600.0, 100.0, [None, plan])
+    np.testing.assert_allclose(step, [20 * np.cos(np.radians(264)), 20 * np.sin(np.radians(264)), 0.0], atol=1e-9)

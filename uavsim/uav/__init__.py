@@ -10,6 +10,8 @@ maps the names a mission or the command line uses to their makers:
   or a move chosen from outside (``Simulation.step(action)``, the Gymnasium environment);
 * ``weighted``: Eq. (13) with each target's trace weighted by its size over the moves
   (ours; the targets known least about count most, :class:`.grid.Weighted`);
+* ``seek``: Eq. (13)'s move, or a flight to the target whose bearing would tell most per
+  step of the way when that pays more (ours, :class:`.grid.Seek`);
 * ``lookahead``: the grid move of least covariance trace accumulated over a rollout of
   the myopic rule for several steps (non-myopic; :mod:`.lookahead`);
 * ``zigzag``, ``square``, ``pentagon``, ``circle``: pre-computed loops (Fig. 3);
@@ -39,17 +41,17 @@ from ..declare import setting
 from ..mission import Mission
 from ..sensing import BearingModel
 from .fixed import FixedSensors, FixedSensorsConfig, NoSensor
-from .grid import GridOptimizer, UavConfig, Weighted, admissible, candidates, decide, move_offsets, uav_start
+from .grid import GridOptimizer, Seek, UavConfig, Weighted, admissible, candidates, decide, move_offsets, uav_start
 from .lookahead import Lookahead, LookaheadConfig
 from .manoeuvres import MANOEUVRES, Manoeuvre, ManoeuvreConfig, Route, manoeuvre_loop, manoeuvre_route, place_loop
 
-POLICIES = {"optimized": GridOptimizer, "weighted": Weighted, "lookahead": Lookahead,
+POLICIES = {"optimized": GridOptimizer, "weighted": Weighted, "seek": Seek, "lookahead": Lookahead,
             **{n: partial(Manoeuvre, n) for n in MANOEUVRES}, "fixed-sensors": FixedSensors, "baseline": NoSensor}
 PLANNERS = tuple(POLICIES)  # the names users give: `--planner`, [planner] name
 BASELINE = "baseline"  # the policy every study is measured against
 
 __all__ = ["POLICIES", "PLANNERS", "BASELINE", "MANOEUVRES", "Policy", "PlannerConfig", "UavConfig", "ManoeuvreConfig",
-           "FixedSensorsConfig", "LookaheadConfig", "GridOptimizer", "Weighted", "Lookahead", "Manoeuvre",
+           "FixedSensorsConfig", "LookaheadConfig", "GridOptimizer", "Weighted", "Seek", "Lookahead", "Manoeuvre",
            "FixedSensors", "NoSensor", "Route", "make_policy", "decide",
            "admissible", "candidates", "move_offsets", "uav_start", "manoeuvre_loop", "manoeuvre_route", "place_loop"]
 
