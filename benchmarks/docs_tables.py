@@ -359,7 +359,8 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-first-commit": "tracking-first-commit.json", "towns-large": "tracking-large.json",
     "towns-route-switch": "tracking-route-switch.json", "towns-large-switch": "tracking-large-switch.json",
     "towns-route-probes": "tracking-route-probes.json", "towns-large-probes": "tracking-large-probes.json",
-    "towns-grid-probes": "tracking-grid-probes.json", "towns-seek": "tracking-seek.json"}
+    "towns-grid-probes": "tracking-grid-probes.json", "towns-seek": "tracking-seek.json",
+    "towns-large-60": "tracking-large-60.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
