@@ -26,7 +26,8 @@ and the filter's re-plans alike); ``no-keep-out``: the mission's filter with its
 free to cross obstacles and its prior unrestricted (``filter.keep_out = false``; its
 baseline likewise, ``OUT/baseline-False``); ``replan`` and ``commit``: the filter's particles
 moved by re-plans every step, or by the committed plans of clusters (``filter.motion``; the
-baseline likewise, ``OUT/baseline-replan-2``, ``OUT/baseline-commit``).  Every variant runs the
+baseline likewise, ``OUT/baseline-replan-2``, ``OUT/baseline-commit``); ``altitude-120``: the
+optimized policy with the UAV at 120 m instead of the mission's altitude (the baseline has no UAV).  Every variant runs the
 same trials (trial k seeded from ``SeedSequence(seed).spawn(trials)[k]``) beside the
 no-information baseline of those trials
 (:func:`uavsim.campaign.with_baseline`), and reports what a tracking result needs: RMSE over
@@ -74,6 +75,7 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     # every step re-plans (two halves a target), its noise levels as they were with it
     "replan": ("optimized", {"filter.motion": "replan", "filter.plan_clusters": 2, "filter.noise_scales": [0.03, 0.3]}),
     "commit": ("optimized", {"filter.motion": "commit"}),  # clusters' plans made once, flown open loop
+    "altitude-120": ("optimized", {"uav.altitude_m": 120.0}),  # the UAV three times as high: fewer lines of sight blocked
 }
 # overrides the baseline takes too: they change the truths (truth, guidance) or what the filter
 # knows without a measurement (keep_out, motion, its clusters and their switching)

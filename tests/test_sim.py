@@ -244,6 +244,26 @@ def test_pseudo_linear_filters_in_the_closed_loop(kind):
     assert np.isfinite(info.scores).any()
 
 
+@pytest.mark.parametrize("planner", ["optimized", "seek"])
+def test_a_pseudo_linear_filter_runs_with_the_uav_right_above_a_prior_mean(planner):
+    """The UAV starts right above target 0's prior mean: staying there is one of Eq. (13)'s
+    candidates, where the linearised bearing's gradient is undefined.  With the range floored
+    (:data:`uavsim.belief.traces.MIN_RANGE_M`) that candidate scores target 0 at its
+    prediction's trace (no measurement), and the run goes on with finite beliefs."""
+    start = load_mission(CLUTTER_FREE).targets[0].mean0
+    m = load_mission(CLUTTER_FREE, {"filter.kind": "plkf", "steps": 3, "uav.random_start": False,
+                                    "uav.start_m": [float(start[0]), float(start[1]), 40.0]})
+    sim = Simulation(m, planner)
+    sim.reset(0)
+    mean, cov = sim.belief.moments()
+    np.testing.assert_array_equal(mean[0, :2], start[:2])
+    here = sim.belief.traces(sim.policy.position[None], sim.policy.sensor)
+    assert here[0, 0] == pytest.approx(np.trace(cov[0]), rel=1e-12)
+    for _ in range(3):
+        info = sim.step()
+    assert np.isfinite(info.mean).all() and np.isfinite(info.scores).any()
+
+
 def test_iv_plkf_tracks_the_clutter_free_paper_mission():
     """Measured with 2 trials x 30 steps (mission file): IV-PLKF 11.0 m against the
     particle filter's 9.2 m.  Bound: within twice the particle filter's RMSE."""

@@ -112,3 +112,18 @@ def test_gaussian_traces_by_hand():
     got = gaussian_traces(cands, means, a * np.eye(6)[None], BearingModel(sigma))
     want = 6 * a - a**2 / r**2 / (a / r**2 + sigma**2)
     np.testing.assert_allclose(got[:, 0], [want, want], rtol=1e-12)
+
+
+def test_gaussian_traces_right_above_a_mean_score_no_measurement():
+    """Within ``MIN_RANGE_M`` (1 m) of a mean the range is floored: 0.5 m north of it
+    ``|h| = 0.5 / 1^2``, so the trace drops by ``a^2 0.25 / (0.25 a + sigma^2)``; right above
+    it ``h = 0`` and the trace is the prediction's, ``6 a``, where the bearing's gradient
+    ``(dy, -dx) / r^2`` is undefined (a Gaussian-belief run whose UAV started above a
+    target's prior mean stopped with a ValueError there)."""
+    from uavsim.belief.traces import gaussian_traces
+
+    a, sigma = 25.0, 0.02
+    means = np.array([[300.0, 400.0, 0, 1, 2, 0]])
+    cands = np.array([[300.0, 399.5, 40.0], [300.0, 400.0, 40.0]])
+    got = gaussian_traces(cands, means, a * np.eye(6)[None], BearingModel(sigma))
+    np.testing.assert_allclose(got[:, 0], [6 * a - a**2 * 0.25 / (0.25 * a + sigma**2), 6 * a], rtol=1e-12)

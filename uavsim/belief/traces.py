@@ -28,6 +28,12 @@ from ..sensing import BearingModel, MeasurementModel
 BLOCK_ELEMENTS = 1 << 16  # candidate x target x particle entries per block: 256 kB float32 arrays stay in L2
 DECISION_PARTICLES = 1000  # per target: the systematic subsample of :func:`model_traces`
 SIGHT_CELLS = 32  # per target: the cells of :func:`sight_cells`, one line of sight tested to each
+MIN_RANGE_M = 1.0
+"""The range floor of :func:`gaussian_traces` (m).  Within it the linearisation says nothing
+useful (the bearing's gradient grows as ``1 / r``) and right above a mean it is undefined;
+floored, ``|H| = r / MIN_RANGE_M^2`` falls to 0 there, so a candidate right above a target's
+mean scores as no measurement instead of stopping the run.  Our choice: the paper's beliefs
+are particles, whose traces need no floor."""
 SIGHT_ACROSS = 4  # cells across a cloud's principal axis, in each of its SIGHT_CELLS / 4 strips along it
 
 
@@ -300,7 +306,7 @@ def _block_sums(cross: np.ndarray, dot: np.ndarray, feats: np.ndarray, sigma: fl
 
 
 def gaussian_traces(candidates: np.ndarray, means: np.ndarray, covs: np.ndarray, sensor: MeasurementModel,
-                    min_range: float = 0.0, info_factor: float = 1.0, detect: np.ndarray | None = None) -> np.ndarray:
+                    min_range: float = MIN_RANGE_M, info_factor: float = 1.0, detect: np.ndarray | None = None) -> np.ndarray:
     """Eq. (12)-(13) for Gaussian beliefs (the pseudo-linear filters, the lookahead): the
     trace after a noise-free measurement linearised at the mean,
     ``tr(P) - tr(P H^T (H P H^T + R / info_factor)^-1 H P)``, ``H`` the model's Jacobian

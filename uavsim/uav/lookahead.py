@@ -44,14 +44,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..belief.traces import gaussian_traces
+from ..belief.traces import MIN_RANGE_M, gaussian_traces
 from ..bounds.pcrlb import pcrlb_step
 from ..declare import setting
 from ..mission import Mission
 from ..targets import HORIZONTAL
 from .grid import GridOptimizer, admissible, move_offsets
-
-MIN_RANGE_M = 1.0
 
 
 @dataclass(frozen=True, eq=False)
