@@ -27,13 +27,14 @@ free to cross obstacles and its prior unrestricted (``filter.keep_out = false``;
 baseline likewise, ``OUT/baseline-False``); ``replan`` and ``commit``: the filter's particles
 moved by re-plans every step, or by the committed plans of clusters (``filter.motion``; the
 baseline likewise, ``OUT/baseline-replan-2``, ``OUT/baseline-commit``); ``altitude-120``: the
-optimized policy with the UAV at 120 m instead of the mission's altitude (the baseline has no UAV).  Every variant runs the
-same trials (trial k seeded from ``SeedSequence(seed).spawn(trials)[k]``) beside the
-no-information baseline of those trials
+optimized policy with the UAV at 120 m instead of the mission's altitude (the baseline has no
+UAV).  Every variant runs the same trials (trial k seeded from
+``SeedSequence(seed).spawn(trials)[k]``) beside the no-information baseline of those trials
 (:func:`uavsim.campaign.with_baseline`), and reports what a tracking result needs: RMSE over
 the baseline's, overall and per target; lost target-trials (final error over 3
 no-information RMSEs); tracks the filter declared lost and re-seeded; position NEES (mean and
-the share of steps inside, below and above its 95% band); the truth's credible level in the
+the share of steps inside, below and above its 95% chi-square band, and of the beliefs' own
+band, :func:`uavsim.metrics.belief_band`); the truth's credible level in the
 belief (:func:`uavsim.metrics.credible_level`: mean 0.5 and 5% outside the 95% region if
 calibrated, whatever the belief's shape); step seconds.
 
@@ -75,7 +76,7 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     # every step re-plans (two halves a target), its noise levels as they were with it
     "replan": ("optimized", {"filter.motion": "replan", "filter.plan_clusters": 2, "filter.noise_scales": [0.03, 0.3]}),
     "commit": ("optimized", {"filter.motion": "commit"}),  # clusters' plans made once, flown open loop
-    "altitude-120": ("optimized", {"uav.altitude_m": 120.0}),  # the UAV three times as high: fewer lines of sight blocked
+    "altitude-120": ("optimized", {"uav.altitude_m": 120.0}),  # the UAV 3x as high: fewer lines of sight blocked
 }
 # overrides the baseline takes too: they change the truths (truth, guidance) or what the filter
 # knows without a measurement (keep_out, motion, its clusters and their switching)
@@ -87,6 +88,9 @@ def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, worke
     (``OUT/baseline``; a variant that changes the truth, its kind or its guidance, has its
     own, named by the values: ``OUT/baseline-stochastic``, ``OUT/baseline-0.1``)."""
     planner, extra = VARIANTS.get(variant, (variant, {}))
+    if "uav.altitude_m" in extra:  # the start's z goes with the altitude (a start off it is an error)
+        x, y = load_mission(path).uav.start[:2]
+        extra = extra | {"uav.start_m": [float(x), float(y), extra["uav.altitude_m"]]}
     m = load_mission(path, {"steps": steps, "trials": trials, **extra})
     shared = {k: v for k, v in extra.items() if k.startswith(SHARED)}
     base = load_mission(path, {"steps": steps, "trials": trials, **shared})
@@ -106,6 +110,8 @@ def figures(s: dict) -> dict:
             "nees_pos_mean": float(np.mean(nees["mean"])), "nees_pos_inside": nees["inside"],
             "nees_pos_below": nees["below"], "nees_pos_above": nees["above"],
             "nees_pos_calibrated_inside": nees["calibrated"]["inside"] if "calibrated" in nees else None,
+            **({f"nees_pos_beliefs_{k}": nees["belief_band"][k] for k in ("inside", "below", "above")}
+               if "belief_band" in nees else {}),
             "level_mean": float(np.mean(s["calibration"]["mean"])), "level_inside": s["calibration"]["inside"],
             "outside_95": s["calibration"]["outside_95"],
             "step_seconds_median": s["timing"]["total"], "planner_seconds_median": s["timing"]["planner"],
@@ -129,12 +135,15 @@ def run_world(world: str, n: int, variants: list[str], args) -> list[dict]:
 
 
 def table(rows: list[dict]) -> str:
-    """The rows as markdown; the calibrated filter's share in band is a column when a row has
-    it (campaigns from before it was kept have not)."""
+    """The rows as markdown; the calibrated filter's share in band and the filter's in its
+    beliefs' own band are columns when a row has them (campaigns from before they were kept,
+    or their JSON written before, have not)."""
     calibrated = any(r.get("nees_pos_calibrated_inside") is not None for r in rows)
+    beliefs = any("nees_pos_beliefs_inside" in r for r in rows)
     head = ["world", "targets", "UAV / filter", "RMSE m (no info)", "ratio", "targets below no info",
             "lost target-trials", "re-seeded", "NEES pos mean", "NEES in band / below / above",
             *(["a calibrated filter in band"] if calibrated else []),
+            *(["NEES in the beliefs' band / below / above"] if beliefs else []),
             "credible level mean (in band)", "truth outside 95%", "line of sight blocked", "step s p50"]
     body = [[r["world"], r["targets"], r["variant"], f"{r['rmse']:.1f} ({r['baseline_rmse']:.1f})",
              f"{r['ratio']:.2f}", f"{100 * r['targets_below_baseline']:.0f}%",
@@ -143,6 +152,9 @@ def table(rows: list[dict]) -> str:
              f"{100 * r['nees_pos_above']:.0f}%",
              *([] if not calibrated else ["-" if r.get("nees_pos_calibrated_inside") is None
                                           else f"{100 * r['nees_pos_calibrated_inside']:.0f}%"]),
+             *([] if not beliefs else ["-" if "nees_pos_beliefs_inside" not in r else
+                                       " / ".join(f"{100 * r['nees_pos_beliefs_' + k]:.0f}"
+                                                  for k in ("inside", "below", "above")) + "%"]),
              f"{r['level_mean']:.2f} ({100 * r['level_inside']:.0f}%)",
              f"{100 * r['outside_95']:.1f}%", "off" if r.get("occluded") is None else f"{100 * r['occluded']:.0f}%",
              f"{r['step_seconds_median']:.2f}"] for r in rows]

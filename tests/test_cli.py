@@ -241,9 +241,9 @@ def test_plan_json_is_one_readable_object(capsys):
 def test_run_explains_its_nees_lines(capsys, tmp_path):
     """Each NEES line says in one word whether the filter is consistent, pessimistic or
     overconfident; under the position line, what a calibrated filter with the same beliefs
-    would score; one line under them says what is averaged (n = trials x targets) and
-    what the band means; the band is chi-square with n x dof degrees of freedom, / n; the
-    guidance plans are counted in words."""
+    would score and how the filter fares in its beliefs' own band; one line under them says
+    what is averaged (n = trials x targets) and what the band means; the band is chi-square
+    with n x dof degrees of freedom, / n; the guidance plans are counted in words."""
     from scipy import stats
 
     assert main(["run", M, "--trials", "2", "--steps", "1", "--quiet", "--workers", "1", "--out",
@@ -254,6 +254,9 @@ def test_run_explains_its_nees_lines(capsys, tmp_path):
            "filter's share" in out
     assert re.search(r"a calibrated filter with these beliefs \(truths drawn from them, 8 draws\): mean [\d.]+, "
                      r"inside \d+% of steps \(\d+%-\d+%\)", out)
+    assert re.search(r"against the beliefs' own band \(the spread of those draws' NEES\): "
+                     r"(consistent|pessimistic|overconfident): inside \d+% of steps, below \d+%, above \d+%; "
+                     r"the draws themselves inside \d+%", out)
     lo, hi = stats.chi2.ppf([0.025, 0.975], 8 * 2) / 8
     assert re.search(r"NEES position \(dof 2\): (consistent|pessimistic|overconfident): mean", out)
     assert f"95% band [{lo:.2f}, {hi:.2f}]" in out and out.count("(NEES: the error weighted") == 1

@@ -378,6 +378,11 @@ def _print_summary(s: dict) -> None:
             print(f"  {'':<8}a calibrated filter with these beliefs (truths drawn from them, {c['draws']} draws): "
                   f"mean {np.mean(c['mean']):.2f}, inside {c['inside']:.0%} of steps "
                   f"({c['inside_range'][0]:.0%}-{c['inside_range'][1]:.0%})")
+        if "belief_band" in n:
+            b = n["belief_band"]
+            print(f"  {'':<8}against the beliefs' own band (the spread of those draws' NEES): {_verdict(n | b)}: "
+                  f"inside {b['inside']:.0%} of steps, below {b['below']:.0%}, above {b['above']:.0%}; "
+                  f"the draws themselves inside {b['calibrated_inside']:.0%}")
     c = s["calibration"]
     print(f"  credible level of the truth (position; 0.50 and 5% if calibrated, whatever the belief's shape): "
           f"mean {np.mean(c['mean']):.2f}, band [{c['band'][0]:.2f}, {c['band'][1]:.2f}]: inside {c['inside']:.0%} "
@@ -403,7 +408,8 @@ def _nees_note(trials: int, targets: int, level: float) -> str:
     return (f"  (NEES: the error weighted by the inverse covariance, averaged each step over the n = {trials} x "
             f"{targets} = {trials * targets} trial-targets; a consistent filter with Gaussian beliefs has its average "
             f"in the band at about {level:.0%} of steps, one with other beliefs (particles) at the calibrated "
-            "filter's share; pessimistic: below it, the covariance wider than the errors; overconfident: above)")
+            f"filter's share, and in its beliefs' own band at about {level:.0%} whatever their shape; pessimistic: "
+            "below it, the covariance wider than the errors; overconfident: above)")
 
 
 def cmd_run(args: argparse.Namespace) -> int:

@@ -19,7 +19,9 @@
   NEES band assumes chi-square values: a calibrated heavy-tailed belief (the covariance
   set by its tails, most truths in its core) has the right mean NEES only on average, with
   most step averages below the band and a few far above; the level's band holds for any
-  shape.
+  shape.  The *beliefs' band* (:func:`belief_band`) is the NEES band for the beliefs as they
+  are: the average's spread taken from NEES values of states drawn from the beliefs, so a
+  calibrated filter is inside it at about its level whatever the beliefs' shape.
 """
 
 from __future__ import annotations
@@ -79,6 +81,19 @@ def nees_band(n: int, dof: int, level: float = 0.95) -> tuple[float, float]:
     return float(stats.chi2.ppf(a, n * dof) / n), float(stats.chi2.ppf(1.0 - a, n * dof) / n)
 
 
+def belief_band(n: int, dof: int, variance: np.ndarray, level: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+    """Two-sided ``level`` band of the average of n independent NEES values of mean ``dof``
+    (any calibrated belief's) and variance ``variance`` (one per step, ``(steps,)``): the
+    scaled chi-square ``c chi2(nu)`` of the same two moments [Satterthwaite1946],
+    ``c = variance / (2 dof n)``, ``nu = dof / c``.  Chi-square values (variance ``2 dof``)
+    give :func:`nees_band`'s band; heavier tails a wider one, on both sides."""
+    a = (1.0 - level) / 2.0
+    from scipy import stats
+
+    c = np.maximum(np.asarray(variance, float), 1e-12) / (2.0 * dof * n)
+    return c * stats.chi2.ppf(a, dof / c), c * stats.chi2.ppf(1.0 - a, dof / c)
+
+
 def rmse_per_target(err2: np.ndarray) -> np.ndarray:
     """``(M, steps)`` RMSE from squared position errors ``(trials, steps, M)``."""
     return np.sqrt(err2.mean(axis=0)).T
@@ -106,7 +121,10 @@ def consistency(values: np.ndarray, dof: int, level: float = 0.95, reference: np
     then ``"calibrated"`` holds their per-step average (over the draws too) and the share of
     steps inside the same band, for each draw as one campaign, averaged over the draws,
     with the least and most of them: what the filter's own share would be if it were
-    calibrated."""
+    calibrated.  And ``"belief_band"`` tests the filter against its beliefs' own shape: each
+    step's band for the average of n values whose variance is the reference's about
+    ``dof`` (:func:`belief_band`), the filter's share of steps inside, below and above it,
+    and the calibrated draws' share inside (about ``level`` when the band is right)."""
     trials, _, m = values.shape
     lo, hi = nees_band(trials * m, dof, level)
     mean = values.mean(axis=(0, 2))
@@ -118,6 +136,11 @@ def consistency(values: np.ndarray, dof: int, level: float = 0.95, reference: np
         share = ((each >= lo) & (each <= hi)).mean(axis=0)  # (draws,)
         out["calibrated"] = {"mean": each.mean(axis=1).tolist(), "inside": float(share.mean()),
                              "inside_range": [float(share.min()), float(share.max())], "draws": int(share.size)}
+        blo, bhi = belief_band(trials * m, dof, ((reference - dof) ** 2).mean(axis=(0, 2, 3)), level)
+        out["belief_band"] = {"band": np.column_stack([blo, bhi]).tolist(),
+                              "inside": float(np.mean((mean >= blo) & (mean <= bhi))),
+                              "below": float(np.mean(mean < blo)), "above": float(np.mean(mean > bhi)),
+                              "calibrated_inside": float(((each >= blo[:, None]) & (each <= bhi[:, None])).mean())}
     return out
 
 

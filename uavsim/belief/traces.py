@@ -306,7 +306,8 @@ def _block_sums(cross: np.ndarray, dot: np.ndarray, feats: np.ndarray, sigma: fl
 
 
 def gaussian_traces(candidates: np.ndarray, means: np.ndarray, covs: np.ndarray, sensor: MeasurementModel,
-                    min_range: float = MIN_RANGE_M, info_factor: float = 1.0, detect: np.ndarray | None = None) -> np.ndarray:
+                    min_range: float = MIN_RANGE_M, info_factor: float = 1.0,
+                    detect: np.ndarray | None = None) -> np.ndarray:
     """Eq. (12)-(13) for Gaussian beliefs (the pseudo-linear filters, the lookahead): the
     trace after a noise-free measurement linearised at the mean,
     ``tr(P) - tr(P H^T (H P H^T + R / info_factor)^-1 H P)``, ``H`` the model's Jacobian
