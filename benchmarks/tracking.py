@@ -26,9 +26,9 @@ and the filter's re-plans alike); ``no-keep-out``: the mission's filter with its
 free to cross obstacles and its prior unrestricted (``filter.keep_out = false``; its
 baseline likewise, ``OUT/baseline-False``); ``replan`` and ``commit``: the filter's particles
 moved by re-plans every step, or by the committed plans of clusters (``filter.motion``; the
-baseline likewise, ``OUT/baseline-replan-2``, ``OUT/baseline-commit``); ``altitude-120``: the
-optimized policy with the UAV at 120 m instead of the mission's altitude (the baseline has no
-UAV).  Every variant runs the same trials (trial k seeded from
+baseline likewise, ``OUT/baseline-replan-2``, ``OUT/baseline-commit``); ``altitude-120``,
+``altitude-200``: the optimized policy with the UAV at 120 or 200 m instead of the mission's
+altitude (the baseline has no UAV).  Every variant runs the same trials (trial k seeded from
 ``SeedSequence(seed).spawn(trials)[k]``) beside the no-information baseline of those trials
 (:func:`uavsim.campaign.with_baseline`), and reports what a tracking result needs: RMSE over
 the baseline's, overall and per target; lost target-trials (final error over 3
@@ -77,6 +77,7 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "replan": ("optimized", {"filter.motion": "replan", "filter.plan_clusters": 2, "filter.noise_scales": [0.03, 0.3]}),
     "commit": ("optimized", {"filter.motion": "commit"}),  # clusters' plans made once, flown open loop
     "altitude-120": ("optimized", {"uav.altitude_m": 120.0}),  # the UAV 3x as high: fewer lines of sight blocked
+    "altitude-200": ("optimized", {"uav.altitude_m": 200.0}),
 }
 # overrides the baseline takes too: they change the truths (truth, guidance) or what the filter
 # knows without a measurement (keep_out, motion, its clusters and their switching)
