@@ -117,7 +117,8 @@ def figures(s: dict) -> dict:
             "outside_95": s["calibration"]["outside_95"],
             "step_seconds_median": s["timing"]["total"], "planner_seconds_median": s["timing"]["planner"],
             "occluded": None if s.get("occluded_per_target") is None else float(np.mean(s["occluded_per_target"])),
-            "truth_collisions": s["truth_collisions"]}
+            "truth_collisions": s["truth_collisions"],
+            "wall_capped_trials": sum(1 for c in s.get("wall_capped", []) if c)}
 
 
 def run_world(world: str, n: int, variants: list[str], args) -> list[dict]:

@@ -531,3 +531,25 @@ def test_the_calibrated_reference_is_kept_and_older_trial_files_still_sum(tmp_pa
     path.write_bytes(buf.getvalue())
     again = run_campaign(m, "optimized", out=tmp_path / "c", workers=1, resume=True)
     assert "calibrated" not in again["nees"]["pos"] and again["rmse"] == s["rmse"]
+
+
+def test_plans_the_wall_clock_stopped_are_counted_per_trial_and_printed(tmp_path, monkeypatch, capsys):
+    """A trial keeps how many of its solves the wall-clock cap stopped (the guidance's count
+    over the trial: here 2, added at each reset, as two capped first plans would); the
+    summary lists them per trial and the printed summary names the trials that may differ
+    on another machine."""
+    from uavsim.cli import _print_summary
+    from uavsim.sim import Simulation
+
+    reset = Simulation.reset
+
+    def capped_reset(self, seed):
+        self.guidance.capped += 2
+        return reset(self, seed)
+
+    monkeypatch.setattr(Simulation, "reset", capped_reset)
+    s = run_campaign(small(trials=2, steps=1), "optimized", out=tmp_path / "c", workers=1)
+    assert s["wall_capped"] == [2, 2]
+    assert [r.wall_capped for r in load_trials(tmp_path / "c" / "trials", range(2)).values()] == [2, 2]
+    _print_summary(s)
+    assert "plans the wall-clock cap stopped before their work budget: 4, in trial(s) 0, 1" in capsys.readouterr().out

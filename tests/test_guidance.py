@@ -649,3 +649,28 @@ def test_a_face_closes_the_reachable_boxes_under_the_speed_limit():
     assert beyond(boxes, 1, diagonal, 2001.0 / np.sqrt(2), 16.0) is None
     lo2, hi2 = beyond((lo, hi), 2, np.array([-1.0, 0.0]), -70.0, 16.0)
     np.testing.assert_array_equal(hi2[:, 0], [102.0, 86.0, 70.0])
+
+
+def test_a_plan_the_wall_clock_stopped_says_so_and_is_counted(monkeypatch, paper_plans):
+    """A budget whose wall-clock deadline has passed stops the solve before its work does:
+    the plan says so (``capped``, the message; a fallback after it too), and
+    :attr:`Guidance.capped` counts each such solve, and a cold plan reused from the cache
+    once more.  A plan stopped by its work alone is neither."""
+    import time
+
+    from uavsim.guidance.oa import Budget
+
+    said = "stopped by the wall-clock cap"
+
+    g = Guidance(MISSION.world, MISSION.dynamics, MISSION.guidance)
+    t = MISSION.targets[0]
+    free = g.plan(t.mean0, t.cov0, GOAL)
+    assert not free.capped and said not in free.message and g.capped == 0
+    monkeypatch.setattr(Guidance, "budget", staticmethod(lambda s, master: Budget(s, time.perf_counter() - 1, master)))
+    # no QP runs: the re-plan fails, and so does its retry from rest; it flies the previous plan
+    warm = g.replan(paper_plans[1].means[0], paper_plans[1].covs[0], GOAL, paper_plans[1], 1)
+    assert warm.status == "fallback" and warm.capped and said in warm.message and g.capped == 2
+    cold = g.plan(t.mean0 + [1.0, 0, 0, 0, 0, 0], t.cov0, GOAL)
+    assert cold.capped and said in cold.message and g.capped == 3
+    g.plan(t.mean0 + [1.0, 0, 0, 0, 0, 0], t.cov0, GOAL)  # the cache's copy
+    assert g.capped == 4

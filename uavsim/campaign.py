@@ -107,7 +107,10 @@ class TrialResult:
     ``level``: the truth's credible level in the belief ``(steps, M)`` (:func:`uavsim.metrics.credible_level`);
     ``nees_ref``: the position NEES of :data:`REFERENCE_DRAWS` states drawn from each belief
     ``(steps, M, draws)``, a calibrated filter's with these beliefs (:func:`uavsim.metrics.consistency`;
-    None in trial files written before it was kept)."""
+    None in trial files written before it was kept); ``wall_capped``: the trial's plans (the
+    truth's, the filter's, cold ones reused from the cache included) that the wall-clock cap
+    rather than their work stopped (:attr:`uavsim.guidance.Plan.capped`): where it is not 0
+    the trial may differ on another machine or under another load."""
 
     index: int
     err2: np.ndarray
@@ -123,6 +126,7 @@ class TrialResult:
     collisions: int = 0
     level: np.ndarray | None = None
     nees_ref: np.ndarray | None = None
+    wall_capped: int = 0
 
 
 REFERENCE_DRAWS = 8  # states drawn from each belief per step for the calibrated reference of the NEES
@@ -275,6 +279,7 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
     see :class:`uavsim.sim.Simulation`."""
     with one_blas_thread(), mission_errors(mission.path):
         sim = Simulation(mission, planner, guidance, oracle)
+        capped = sim.guidance.capped
         info = sim.reset(seed)
         if on_step:
             on_step(info)
@@ -300,7 +305,8 @@ def run_trial(mission: Mission, planner: str, index: int, seed: np.random.SeedSe
             events += [f"step {info.t}: {e}" for e in info.events if not e.startswith("resampled")]
     return TrialResult(index, np.array(err2), np.array(trace), np.array(nees_pos), np.array(nees_state),
                        np.array(secs), statuses, tuple(events), np.stack(truth), np.stack(observers),
-                       np.array(sens), sim.truth.collisions, np.array(level), np.array(ref))
+                       np.array(sens), sim.truth.collisions, np.array(level), np.array(ref),
+                       sim.guidance.capped - capped)
 
 
 _GUIDANCE: dict[str, Guidance] = {}  # per process: build each mission's models once (kept_guidance)
@@ -440,7 +446,7 @@ def save_trial(folder: Path, r: TrialResult, key: str) -> None:
                              "written: this is a defect of uavsim, please report it with the mission and the seed")
     buf = io.BytesIO()
     meta = np.array(json.dumps({"statuses": r.statuses, "events": list(r.events), "collisions": r.collisions,
-                                "trial_key": key, "format": FORMAT}))
+                                "wall_capped": r.wall_capped, "trial_key": key, "format": FORMAT}))
     np.savez(buf, index=r.index, err2=r.err2, trace=r.trace, nees_pos=r.nees_pos, nees_state=r.nees_state,
              seconds=r.seconds, truth=r.truth, observers=r.observers,
              sensitivity=r.sensitivity, level=r.level, meta=meta,
@@ -461,7 +467,7 @@ def _read_trial(path: Path, k: int, key: str | None) -> TrialResult:
             r = TrialResult(int(z["index"]), z["err2"], z["trace"], z["nees_pos"], z["nees_state"],
                             z["seconds"], meta["statuses"], tuple(meta["events"]), z["truth"],
                             z["observers"], z["sensitivity"], meta.get("collisions", 0), z["level"],
-                            z["nees_ref"] if "nees_ref" in z.files else None)
+                            z["nees_ref"] if "nees_ref" in z.files else None, meta.get("wall_capped", 0))
     except Exception as exc:  # noqa: BLE001 (a damaged zip or array raises any of a dozen types, e.g.
         # NotImplementedError for a flipped version byte, found by the random-damage test)
         raise _Unusable(f"not a readable trial file ({type(exc).__name__}: {exc})") from None
@@ -1013,6 +1019,7 @@ def summarize(mission: Mission, planner: str, results: list[TrialResult], wall: 
         "track_loss_events": track_loss_events([t.name for t in mission.targets], results),
         "occluded_per_target": occluded_share(sensor, results),
         "truth_collisions": sum(r.collisions for r in results),
+        "wall_capped": [r.wall_capped for r in results],  # per trial: plans the wall clock stopped
         "timing": {k: float(np.median(secs[:, i])) for i, k in enumerate(STAGES)},
         "wall_seconds": wall,
     }

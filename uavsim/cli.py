@@ -393,6 +393,11 @@ def _print_summary(s: dict) -> None:
     print(f"  median s/step: guidance {t['guidance']:.3f}, filter {t['filter']:.3f}, planner {t['planner']:.4f}, "
           f"truth {t['truth']:.3f}, total {t['total']:.3f}; guidance plans: {plans}")
     print(f"  truth steps touching an obstacle: {s.get('truth_collisions', 0)} (every step, from the start)")
+    capped = s.get("wall_capped", [])
+    if any(capped):
+        which = ", ".join(str(k) for k, c in enumerate(capped) if c)
+        print(f"  plans the wall-clock cap stopped before their work budget: {sum(capped)}, in trial(s) {which}: "
+              "those trials may differ on another machine or under another load (a slower or busier one)")
 
 
 def _verdict(n: dict) -> str:

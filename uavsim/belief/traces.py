@@ -28,13 +28,13 @@ from ..sensing import BearingModel, MeasurementModel
 BLOCK_ELEMENTS = 1 << 16  # candidate x target x particle entries per block: 256 kB float32 arrays stay in L2
 DECISION_PARTICLES = 1000  # per target: the systematic subsample of :func:`model_traces`
 SIGHT_CELLS = 32  # per target: the cells of :func:`sight_cells`, one line of sight tested to each
+SIGHT_ACROSS = 4  # cells across a cloud's principal axis, in each of its SIGHT_CELLS / 4 strips along it
 MIN_RANGE_M = 1.0
 """The range floor of :func:`gaussian_traces` (m).  Within it the linearisation says nothing
 useful (the bearing's gradient grows as ``1 / r``) and right above a mean it is undefined;
 floored, ``|H| = r / MIN_RANGE_M^2`` falls to 0 there, so a candidate right above a target's
 mean scores as no measurement instead of stopping the run.  Our choice: the paper's beliefs
 are particles, whose traces need no floor."""
-SIGHT_ACROSS = 4  # cells across a cloud's principal axis, in each of its SIGHT_CELLS / 4 strips along it
 
 
 def pseudo_traces(candidates: np.ndarray, particles: np.ndarray, weights: np.ndarray,

@@ -79,6 +79,9 @@ class Plan:
         (step 1 is fixed by the start), later where the start lies in an obstacle's margin
         and cannot leave it sooner (the message names the obstacles).
     start : (6,) the mean the plan starts from (None if it has no controls).
+    capped : the wall-clock cap (:data:`WALL_CAP`), not the work budget, stopped the solve:
+        the plan may differ on another machine or under another load (the solver's message
+        says so; :attr:`Guidance.capped` counts such solves).  A fallback after a capped solve is capped.
     """
 
     status: str
@@ -99,6 +102,7 @@ class Plan:
     work_seconds: float = 0.0
     guarded_from: int = 2
     start: np.ndarray | None = None
+    capped: bool = False
 
     @property
     def eventful(self) -> bool:
@@ -138,7 +142,8 @@ class Guidance:
         self.world, self.dynamics, self.cfg, self.solver = world, dynamics, cfg, solver
         self.geom = geometry(world, dynamics, cfg)
         self._models: dict[int, tuple] = {}
-        self._cold: dict[bytes, Plan] = {}  # plans without warm start: a pure function of the inputs
+        self._cold: dict[bytes, Plan] = {}  # plans without warm start: a pure function of the inputs unless capped
+        self.capped = 0  # solves the wall-clock cap stopped (Plan.capped), a cached cold plan at each reuse
         self.kept: dict = {}  # what a closed loop derives from this guidance alone, the same every trial
         self.reach, self.oa = self._model(cfg.horizon)
 
@@ -206,6 +211,7 @@ class Guidance:
         if warm is None:  # e.g. every trial's filter plans from the prior: the same inputs, the same plan
             key = np.r_[mean, cov.ravel(), goal, horizon, link].tobytes()
             if key in self._cold:
+                self.capped += self._cold[key].capped  # every reuse carries the cap into its trial
                 return self._cold[key]
         try:
             plan = self._plan(mean, cov, goal, None if warm is None else (warm, shift), horizon, t0, link)
@@ -215,6 +221,7 @@ class Guidance:
             if len(self._cold) >= 256:
                 self._cold.pop(next(iter(self._cold)))
             self._cold[key] = plan
+        self.capped += plan.capped
         return plan
 
     def linked(self, applied: np.ndarray | None, step: int) -> np.ndarray:
@@ -319,10 +326,12 @@ class Guidance:
         for start, how in tries:
             retry = self.plan(start, cov, goal, warm=previous, step=step, shift=shift, applied=applied)
             if retry.ok:
-                return replace(retry, message="; ".join(filter(None, [how, retry.message])), moved_start=True)
+                return replace(retry, message="; ".join(filter(None, [how, retry.message])), moved_start=True,
+                               capped=retry.capped or plan.capped)
         if previous is not None:
-            return previous.shifted(self.dynamics, mean, cov, f"re-plan {plan.status} ({plan.message}); "
-                                                            "flying the previous plan", shift)
+            flown = previous.shifted(self.dynamics, mean, cov, f"re-plan {plan.status} ({plan.message}); "
+                                                             "flying the previous plan", shift)
+            return replace(flown, capped=plan.capped)
         controls = np.zeros((self.horizon_at(step), 3))
         means, covs = self.dynamics.predict_moments(mean, cov, controls)
         return replace(plan, status="fallback", controls=controls, means=means, covs=covs, start=np.array(mean, float),
@@ -339,7 +348,7 @@ class Guidance:
             return soft
         why = "goal region unreachable within the horizon" if plan.status == "infeasible" else "no plan found"
         return replace(soft, unreachable=True, solve_seconds=time.perf_counter() - t0,
-                       work_seconds=plan.work_seconds + soft.work_seconds,
+                       work_seconds=plan.work_seconds + soft.work_seconds, capped=plan.capped or soft.capped,
                        message="; ".join(filter(None, [f"{why} ({plan.message}): soft terminal", soft.message])))
 
     def _region(self, goal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -356,24 +365,26 @@ class Guidance:
         if np.any(np.abs(z_means[:, 2]) > GROUND_BAND_M):
             why = f"target is not on the ground (|z| > {GROUND_BAND_M} m within the horizon)"
             return self._failed("error", t0, why)
-        work, guarded = 0.0, 2
+        work, guarded, capped = 0.0, 2, False
         if self.solver == "scip":
             status, obj, lb, u, faces, terms, it, msg = self._solve_scip(oa, x0, goal[:2], box, link)
         else:
             shifted = None if warm is None or warm[0].faces is None else _shift_warm(*warm, horizon)
             seconds = self.cfg.time_limit if warm is None else self.cfg.replan_budget
-            sol = oa.solve(x0, goal[:2], self.budget(seconds, master=warm is None), shifted, box, link)
+            budget = self.budget(seconds, master=warm is None)
+            sol = oa.solve(x0, goal[:2], budget, shifted, box, link)
             status, obj, lb, it, msg = sol.status, sol.objective, sol.lower_bound, sol.iterations, sol.message
+            capped = budget.capped  # the message says so too (oa)
             u, faces, terms = (None, None, None) if sol.plan is None else (sol.plan.u, sol.plan.y, sol.plan.s)
             work, guarded = sol.work, sol.guarded_from
         if u is None:
-            return replace(self._failed(status, t0, msg, lb), work_seconds=work)
+            return replace(self._failed(status, t0, msg, lb), work_seconds=work, capped=capped)
         controls = np.column_stack([u * KN, np.zeros(len(u))])
         means, covs = self.dynamics.predict_moments(mean, cov, controls)
         gap = max(obj - lb, 0.0) / max(obj, 1.0)
         return Plan(status, obj, lb, gap, it, time.perf_counter() - t0, controls, means, covs, faces, terms,
                     self._in_margin(means[0]), msg, work_seconds=work, guarded_from=guarded,
-                    start=np.array(mean, float))
+                    start=np.array(mean, float), capped=capped)
 
     def _within_limits(self, mean: np.ndarray) -> tuple[np.ndarray, str]:
         """``mean (6,)`` with its ground position clipped to the area and its ground speed
