@@ -443,3 +443,26 @@ def test_route_probes_add_a_cluster_for_a_route_none_takes():
     assert added[0].tolist() == [0, 0, 0, 0] and added[32][0] == 1
     assert (np.array(miss[32])[west] < 15.0).all()
     assert (np.array(miss[32])[~west] <= np.array(miss[0])[~west] + 1e-9).all()
+
+
+def test_the_first_commits_capped_solves_count_in_every_trial_that_reuses_it(monkeypatch):
+    """The first step's cluster plans are made once per guidance and reused by later trials;
+    the solves the wall clock stopped while making them (here 3, added by hand) count in
+    the trial that made them and again in each that reuses them, so every such trial says
+    it may differ on another machine."""
+    m = small(steps=1, **{"filter.motion": "commit"})
+    sim = Simulation(m, "baseline")
+    made = Simulation._cluster_plans
+
+    def capped(self, *args):
+        self.guidance.capped += 3
+        return made(self, *args)
+
+    monkeypatch.setattr(Simulation, "_cluster_plans", capped)
+    counts = []
+    for seed in (1, 2):
+        before = sim.guidance.capped
+        sim.reset(seed)
+        sim.step()
+        counts.append(sim.guidance.capped - before)
+    assert counts == [3, 3]

@@ -318,7 +318,10 @@ class Simulation:
         means0, covs0 = np.array([t.mean0 for t in m.targets]), np.array([t.cov0 for t in m.targets])
         key = ("first commit", k, m.filter.particles, m.filter.keep_out, m.filter.route_probes, means0.tobytes(),
                covs0.tobytes(), np.array(m.goals).tobytes())
-        if key not in self.guidance.kept:
+        if key in self.guidance.kept:  # its capped solves (Plan.capped) count in every trial that reuses it
+            self.guidance.capped += self.guidance.kept[key][4]
+        else:
+            capped = self.guidance.capped
             clear = self._clear if m.filter.keep_out else None
             cloud = restricted_draws(np.random.default_rng(REFERENCE_SEED), means0, covs0, m.filter.particles, clear)[0]
             reference = reference_clusters(cloud, k)
@@ -329,8 +332,8 @@ class Simulation:
                 reference, plans, gains = self._probe_routes(cloud[:, :m.filter.route_probes], reference, plans, gains)
             for a in (*reference, gains):
                 a.flags.writeable = False  # shared by every trial that keeps this guidance
-            self.guidance.kept[key] = (reference, plans, gains, events)
-        return self.guidance.kept[key]
+            self.guidance.kept[key] = (reference, plans, gains, events, self.guidance.capped - capped)
+        return self.guidance.kept[key][:4]
 
     def _probe_routes(self, probes: np.ndarray, reference: tuple, plans: list[list[Plan]], gains: np.ndarray
                       ) -> tuple[tuple, list[list[Plan]], np.ndarray]:
