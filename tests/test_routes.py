@@ -175,3 +175,38 @@ def test_turned_squares_touching_at_a_corner_close_the_passage():
         space = free_space(walls, np.array([-40.0, -20.0]), np.array([40.0, 20.0]))
         assert (route is not None) == open_
         assert bool(space.start_labels(np.array([-30.0, 0.0])) & space.start_labels(np.array([30.0, 0.0]))) == open_
+
+
+def test_one_visibility_graph_answers_every_query_as_a_fresh_one():
+    """The corner edges are found once and kept (one set with the tangent rule, one
+    without, for a terminal inside a polygon): each query's graph equals the one built
+    from scratch, every node pair tested, whatever was asked before it."""
+    from uavsim.world.routes import Visibility, _sees, _tangent
+
+    rng = np.random.default_rng(3)
+    polys = Polygons.boxes(*random_rects(rng, 12))
+    vis = Visibility(polys, *AREA)
+    queries = [([-45.0, -45.0], [145.0, 45.0]), (polys.centres[0], [145.0, -45.0]), ([-45.0, 45.0], [140.0, 0.0])]
+    for start, goal in queries + queries[::-1]:
+        terminals = np.array([start, goal], dtype=float)
+        nodes, vectors, restricted = vis.nodes(terminals)
+        i, j = np.triu_indices(len(nodes), 1)
+        d = nodes[j] - nodes[i]
+        keep = _tangent(d, vectors[i], restricted[i]) & _tangent(d, vectors[j], restricted[j])
+        i, j = i[keep], j[keep]
+        ok = _sees(vis.scene, nodes[i], nodes[j])
+        got_nodes, pairs, length = vis.graph(terminals)
+        np.testing.assert_array_equal(got_nodes, nodes)
+        np.testing.assert_array_equal(pairs, np.column_stack([i[ok], j[ok]]))
+        np.testing.assert_array_equal(length, np.linalg.norm(nodes[j[ok]] - nodes[i[ok]], axis=1))
+    assert set(vis._edges) == {True, False}
+
+
+def test_a_start_at_an_obstacles_centre_has_finite_routes():
+    """A start at the centre of the box it is inside: the first route leaves it straight,
+    and the barrier that asks for another way round is a real ray, not NaN."""
+    lo, hi = np.array([[-10.0, -10.0]]), np.array([[10.0, 10.0]])
+    with np.errstate(all="raise"):
+        routes = distinct_routes([0, 0], [100, 0], Polygons.boxes(lo, hi), *AREA, k=3)
+    assert routes[0].length == pytest.approx(100.0)
+    assert all(np.isfinite(r.points).all() and np.isfinite(r.length) for r in routes)

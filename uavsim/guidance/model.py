@@ -50,6 +50,7 @@ Modelling choices (each stated where the paper is silent):
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -61,6 +62,8 @@ from .faces import Faces
 
 if TYPE_CHECKING:  # cvxpy is imported by build_p1 only: the fast path (uavsim.guidance.qp) never needs it
     import cvxpy as cp
+
+    from ..world.routes import Visibility
 
 KN = 1000.0  # model force unit: 1 kN
 
@@ -162,6 +165,14 @@ class Geometry:
     def face_normals(self) -> np.ndarray:
         """(n, F, 2) outward unit normals."""
         return self.faces.normals
+
+    @cached_property
+    def visibility(self) -> Visibility:
+        """The inflated footprints' visibility graph (:class:`uavsim.world.routes.Visibility`),
+        built at the first route search and kept for every later one."""
+        from ..world.routes import Visibility
+
+        return Visibility(self.polys, self.area_lo, self.area_hi)
 
 
 def geometry(world: World, dynamics: Dynamics, cfg: GuidanceConfig) -> Geometry:

@@ -63,7 +63,6 @@ import highspy
 import numpy as np
 import scipy.sparse as sp
 
-from ..world.routes import distinct_routes
 from .compiled import INF, Compiled, new_highs, pass_model
 from .faces import (
     Reach,
@@ -346,7 +345,7 @@ class OuterApproximation:
 
     def _route_faces(self, ctx, bounds) -> list[np.ndarray]:
         """Face choices along the :data:`ROUTES` shortest topologically distinct routes
-        round the inflated obstacles (:func:`uavsim.world.routes.distinct_routes`), from the first
+        round the inflated obstacles (:meth:`uavsim.world.routes.Visibility.distinct_routes`), from the first
         planned position to the goal.  Step tau is placed on a route by a progress profile:
         at the fraction of the route the obstacle-free optimum has covered by then (same
         speed profile, longer path), and at :data:`PACES` of the farthest the target can
@@ -356,7 +355,7 @@ class OuterApproximation:
         beyond.  Dives from the straight line find only the detours nearest to it; a route
         round the far side of a wall, or through a corridor, comes from here."""
         g, x = self.geom, ctx.relax.x[1:, :2]  # planned positions of steps 1..T
-        routes = distinct_routes(x[0], ctx.goal, g.polys, g.area_lo, g.area_hi, k=ROUTES)
+        routes = g.visibility.distinct_routes(x[0], ctx.goal, k=ROUTES)
         cum = np.r_[0.0, np.cumsum(np.linalg.norm(np.diff(x, axis=0), axis=1))]
         frac = cum[1:] / cum[-1] if cum[-1] > 1e-9 else np.linspace(0.0, 1.0, len(cum))[1:]
         out = []
