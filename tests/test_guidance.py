@@ -674,3 +674,24 @@ def test_a_plan_the_wall_clock_stopped_says_so_and_is_counted(monkeypatch, paper
     assert cold.capped and said in cold.message and g.capped == 3
     g.plan(t.mean0 + [1.0, 0, 0, 0, 0, 0], t.cov0, GOAL)  # the cache's copy
     assert g.capped == 4
+
+
+def test_a_solve_without_a_plan_stops_at_its_work_not_the_clock(monkeypatch):
+    """While it has no plan a solve goes on past its budget, but only up to ``need``
+    reference seconds of work: with the wall clock far away, a need of nothing stops the
+    first plan after its first QPs, without a plan and not capped (before, it looked
+    until the wall clock stopped it, so what it found depended on the machine).  With
+    the default need (4 x budget + 1 s) the same tiny budget finds a plan."""
+    import time
+
+    from uavsim.guidance.oa import Budget
+
+    t = MISSION.targets[0]
+    cfg = dataclasses.replace(MISSION.guidance, time_limit=1e-9)
+    monkeypatch.setattr(Guidance, "budget",
+                        staticmethod(lambda s, master: Budget(s, time.perf_counter() + 3600, master, need=s)))
+    starved = Guidance(MISSION.world, MISSION.dynamics, cfg).plan(t.mean0, t.cov0, GOAL)
+    assert not starved.ok and not starved.capped and "budget" in starved.message
+    monkeypatch.undo()
+    fed = Guidance(MISSION.world, MISSION.dynamics, cfg).plan(t.mean0, t.cov0, GOAL)
+    assert fed.ok and not fed.capped

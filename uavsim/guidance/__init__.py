@@ -16,10 +16,13 @@ campaigns stay bit-identical on any machine and for any number of workers.  On t
 reference machine a budget of 10 s took about 10 s when the constants were fitted, and
 0.6-0.9 of that on re-plans since the QPs' overhead shrank (``benchmarks/budget.py``
 measures the ratio of wall to reference seconds).
-A wall-clock cap of :data:`WALL_CAP` times the budget stops a solve that runs far slower
-than that; the plan then says so.  Within its budget a solve returns the best
-collision-free plan it has, with its certified gap (status "feasible" when above the
-tolerance); one that has no plan yet goes on looking until the cap.
+Within its budget a solve returns the best collision-free plan it has, with its
+certified gap (status "feasible" when above the tolerance); one that has no plan yet goes
+on looking up to :data:`NEED_FACTOR` times its budget plus one second, still counted in
+work.  The work the solver does not count (the route search of a first plan, the
+reachable sets) grows with the obstacles: on a 400-building town a budget lasts about 2.6
+times its seconds.  A wall-clock cap of :data:`WALL_CAP` times what the solve may spend
+stops only a solve that runs far slower than that; the plan then says so.
 """
 
 from __future__ import annotations
@@ -48,7 +51,8 @@ SOLVERS = {  # name -> what it is (`uavsim plan --solver`'s help)
     "scip": "SCIP through cvxpy (pip install 'uavsim[scip]'), for cross-checks",
 }
 DEFAULT_SOLVER = "highs"
-WALL_CAP = 4.0  # a solve stops at this many times its budget in wall seconds, plus one second
+NEED_FACTOR = 4.0  # a solve with no plan yet may spend this many times its budget, plus one reference second
+WALL_CAP = 5.0  # the wall clock stops a solve at this many times those reference seconds (a safety net)
 SENSITIVITY_STEP = np.array([1e-3, 1e-3, 1e-4, 1e-4])  # m, m, m/s, m/s (Guidance.sensitivity)
 
 
@@ -169,10 +173,13 @@ class Guidance:
 
     @staticmethod
     def budget(seconds: float, master: bool) -> Budget:
-        """A :class:`Budget` of ``seconds`` of the reference machine (counted in QPs by the solver)."""
+        """A :class:`Budget` of ``seconds`` of the reference machine (counted in QPs by the
+        solver), ``NEED_FACTOR * seconds + 1`` of them while it has no plan, and a wall-clock
+        deadline :data:`WALL_CAP` times that."""
         from .oa import Budget
 
-        return Budget(seconds, time.perf_counter() + WALL_CAP * seconds + 1.0, master)
+        need = NEED_FACTOR * seconds + 1.0
+        return Budget(seconds, time.perf_counter() + WALL_CAP * need, master, need=need)
 
     def horizon_at(self, step: int) -> int:
         """Horizon of the re-plan at mission step ``step`` (0 = the first plan).

@@ -77,7 +77,7 @@ from .faces import (
     tight_big_m,
 )
 from .model import Geometry
-from .qp import FixedFaceQP, QpSolution
+from .qp import WORK_ITERATION_S, FixedFaceQP, QpSolution
 
 _STATUS = highspy.HighsModelStatus
 E_GRID = np.array([0.05, 0.2, 0.5, 1.0])  # initial tangent points, as fractions of |s_k|'s bound
@@ -97,24 +97,27 @@ class Budget:
     is charged what it costs there (:attr:`.qp.FixedFaceQP.work`: from its DAQP iterations
     and rows, and its Clarabel calls, not from the clock), so that a plan depends on its
     inputs only and not on the machine's speed or load (campaigns stay bit-identical for
-    any number of workers); ``deadline`` (``time.perf_counter``) caps the wall clock as a
-    safety net, and ``capped`` records that it, not the work, stopped the solve (the plan
+    any number of workers).  A solve with no feasible plan yet keeps going past
+    ``seconds`` up to ``need`` reference seconds, also counted in work.  ``deadline``
+    (``time.perf_counter``) caps the wall clock as a safety net only, far beyond what the
+    work takes, and ``capped`` records that it, not the work, stopped the solve (the plan
     may then differ on another machine).  ``master``: whether the MILP master may run
-    (HiGHS's root work is bounded by time only, so only cold plans use it).  A solve with
-    no feasible plan yet keeps going past ``seconds`` until the deadline."""
+    (HiGHS's work is bounded by time only, so only cold plans use it)."""
 
     seconds: float
     deadline: float
     master: bool = False
     capped: bool = False
     spent: float = 0.0  # reference seconds charged so far
+    need: float = np.inf  # reference seconds a solve without a plan may spend
 
     def take(self, need: bool = False) -> bool:
-        """Whether another QP may run: work left (or ``need``: no plan yet), before the deadline."""
+        """Whether another QP may run: work left (or ``need``: no plan yet, and work left
+        of ``need``), before the deadline."""
         if time.perf_counter() > self.deadline:
             self.capped = True
             return False
-        return need or self.spent < self.seconds
+        return self.spent < (self.need if need else self.seconds)
 
     def charge(self, seconds: float) -> None:
         self.spent += seconds
@@ -451,7 +454,7 @@ class OuterApproximation:
             if best is not None and ub - lower <= tol:
                 return self._finish("optimal", best, lower, it)
             remaining = ctx.budget.deadline - time.perf_counter()
-            if remaining <= 0 or (best is not None and ctx.budget.spent >= ctx.budget.seconds):
+            if remaining <= 0 or ctx.budget.spent >= (ctx.budget.seconds if best is not None else ctx.budget.need):
                 ctx.budget.capped |= remaining <= 0
                 return self._finish("feasible", best, lower, it, "budget reached")
             cutoff = ub - tol * (1 - 1e-9) if best is not None else np.inf  # round-off: reported gap <= tol
@@ -462,6 +465,7 @@ class OuterApproximation:
             it += 1
             status = master.getModelStatus()
             info = master.getInfo()
+            ctx.budget.charge(NODE_SECONDS + WORK_ITERATION_S * max(info.simplex_iteration_count, 0))
             beaten = status == _STATUS.kOptimal and info.objective_function_value >= cutoff
             if status == _STATUS.kInfeasible or beaten:
                 if best is None:
