@@ -20,7 +20,7 @@ Within its budget a solve returns the best collision-free plan it has, with its
 certified gap (status "feasible" when above the tolerance); one that has no plan yet goes
 on looking up to :data:`NEED_FACTOR` times its budget plus one second, still counted in
 work.  The work the solver does not count (the route search of a first plan, the
-reachable sets) grows with the obstacles: on a 400-building town a budget lasts about 2.6
+reachable sets) grows with the obstacles: on a 400-building town a budget lasts 2.3-2.8
 times its seconds.  A wall-clock cap of :data:`WALL_CAP` times what the solve may spend
 stops only a solve that runs far slower than that; the plan then says so.
 """

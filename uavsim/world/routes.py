@@ -227,8 +227,8 @@ def _scene(polys: Polygons, area_lo, area_hi) -> _Scene:
 
 
 def _corners(scene: _Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The usable polygon corners ``(C, 2)`` (in the area's frame, outside every other
-    open polygon), each one's two neighbouring corners as vectors ``(C, 2, 2)``, and
+    """The usable polygon corners ``(C, 2)`` (outside every open polygon of the scene,
+    the frame round the area included), each one's two neighbouring corners as vectors ``(C, 2, 2)``, and
     whether it is the corner of exactly one polygon ``(C,)``: see :meth:`Visibility.nodes`."""
     polys, tol, n = scene.polys, scene.tol, scene.n
     real = polys.take(np.arange(n))
