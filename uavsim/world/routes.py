@@ -228,8 +228,9 @@ def _scene(polys: Polygons, area_lo, area_hi) -> _Scene:
 
 def _corners(scene: _Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The usable polygon corners ``(C, 2)`` (outside every open polygon of the scene,
-    the frame round the area included), each one's two neighbouring corners as vectors ``(C, 2, 2)``, and
-    whether it is the corner of exactly one polygon ``(C,)``: see :meth:`Visibility.nodes`."""
+    the frame round the area included), each one's two neighbouring corners as vectors
+    ``(C, 2, 2)``, and whether it is the corner of exactly one polygon ``(C,)``: see
+    :meth:`Visibility.nodes`."""
     polys, tol, n = scene.polys, scene.tol, scene.n
     real = polys.take(np.arange(n))
     v = real.vertices
@@ -324,13 +325,18 @@ class Visibility:
     def _corner_edges(self, restricted: np.ndarray) -> np.ndarray:
         key = bool(restricted.any())
         if key not in self._edges:
-            i, j = np.triu_indices(len(self.corners), 1)
-            d = self.corners[j] - self.corners[i]
-            keep = _tangent(d, self.vectors[i], restricted[i]) & _tangent(d, self.vectors[j], restricted[j])
-            i, j = i[keep], j[keep]
-            ok = _sees(self.scene, self.corners[i], self.corners[j])
-            self._edges[key] = np.column_stack([i[ok], j[ok]])
+            self._edges[key] = self._visible(self.corners, self.vectors, restricted,
+                                             *np.triu_indices(len(self.corners), 1))
         return self._edges[key]
+
+    def _visible(self, nodes, vectors, restricted, i, j) -> np.ndarray:
+        """The pairs ``(P, 2)`` among ``(i, j)`` a shortest path may use: tangent at both
+        ends (:func:`_tangent`) and in sight of each other (:func:`_sees`)."""
+        d = nodes[j] - nodes[i]
+        keep = _tangent(d, vectors[i], restricted[i]) & _tangent(d, vectors[j], restricted[j])
+        i, j = i[keep], j[keep]
+        ok = _sees(self.scene, nodes[i], nodes[j])
+        return np.column_stack([i[ok], j[ok]])
 
     def nodes(self, terminals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Nodes ``(N, 2)``: the terminals (start, goal), then the usable polygon corners; each
@@ -354,11 +360,7 @@ class Visibility:
         n = len(nodes)  # the pairs (i, j > i) with a terminal i; the corner pairs are kept
         i = np.concatenate([np.full(n - 1 - a, a) for a in range(t)]).astype(int)
         j = np.concatenate([np.arange(a + 1, n) for a in range(t)]).astype(int)
-        d = nodes[j] - nodes[i]
-        keep = _tangent(d, vectors[i], restricted[i]) & _tangent(d, vectors[j], restricted[j])
-        i, j = i[keep], j[keep]
-        ok = _sees(self.scene, nodes[i], nodes[j])
-        pairs = np.vstack([np.column_stack([i[ok], j[ok]]), self._corner_edges(restricted[t:]) + t])
+        pairs = np.vstack([self._visible(nodes, vectors, restricted, i, j), self._corner_edges(restricted[t:]) + t])
         return nodes, pairs, np.linalg.norm(nodes[pairs[:, 1]] - nodes[pairs[:, 0]], axis=1)
 
     def shortest_route(self, start, goal) -> Route | None:
