@@ -429,7 +429,7 @@ def test_route_probes_add_a_cluster_for_a_route_none_takes():
         m = load_mission(PAPER, defaults | {"filter.route_probes": probes})
         sim = Simulation(m, "baseline", kept_guidance(m))
         sim.reset(seeds[0])
-        (means, _, _, live), plans, gains, _ = sim.first_commit(16)
+        (means, _, _, live), plans, gains, *_ = sim.first_commit(16)
         added[probes] = live.sum(axis=1) - 16
         miss[probes] = []
         for seed in seeds:
@@ -443,6 +443,45 @@ def test_route_probes_add_a_cluster_for_a_route_none_takes():
     assert added[0].tolist() == [0, 0, 0, 0] and added[32][0] == 1
     assert (np.array(miss[32])[west] < 15.0).all()
     assert (np.array(miss[32])[~west] <= np.array(miss[0])[~west] + 1e-9).all()
+
+
+def test_route_probes_are_planned_as_the_truth_would_be():
+    """A budget-limited search keeps its warm start's route, and the truth flies the plan
+    its search finds from its start, warm from the plan at its prior mean, certified or
+    not (``Truth._first_plan``).  A probe stands for such a truth, so it is planned the same
+    way: every probe's solve is warm-started from the plan at the target's prior mean (on
+    the shipped Helsinki world, warm from the nearest cluster's plan instead, 8 of 40 starts in one
+    target's prior tail planned another route than the truth's from the same start), and a
+    probe whose plan is only feasible adds its route as a certified one does: with every
+    probe's plan marked ``feasible`` T1 still gets its west cluster (the test above)."""
+    defaults = {"steps": 30, "trials": 10, "filter.motion": "commit", "filter.plan_clusters": 16,
+                "filter.noise_scales": [0.003, 0.03, 0.3], "filter.loss_nats": 10.0, "filter.keep_out": True,
+                "filter.route_probes": 32}
+    sim = Simulation(load_mission(PAPER, defaults), "baseline")
+    sim.reset(trial_seeds(2023, 1)[0])
+    solve, probe, warms = sim.guidance.plan, Simulation._route_clusters, []
+
+    def spied(self, j, *args):
+        def uncertified(*a, **kw):
+            if "warm" not in kw:  # the plan at the prior mean
+                return solve(*a, **kw)
+            warms.append((j, kw["warm"]))
+            plan = solve(*a, **kw)
+            return dataclasses.replace(plan, status="feasible") if plan.ok else plan
+
+        self.guidance.plan = uncertified
+        try:
+            return probe(self, j, *args)
+        finally:
+            del self.guidance.plan
+
+    Simulation._route_clusters = spied
+    try:
+        (_, _, _, live), *_ = sim.first_commit(16)
+    finally:
+        Simulation._route_clusters = probe
+    assert len(warms) >= 4 * 32 - 8 and all(w is sim._prior_plan(j) for j, w in warms)
+    assert (live.sum(axis=1) - 16)[0] == 1
 
 
 def test_the_first_commits_capped_solves_count_in_every_trial_that_reuses_it(monkeypatch):

@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -92,6 +93,16 @@ class StepInfo:
     particles: np.ndarray | None = None  # (M, N, 6) posterior particles (a copy)
     uav: np.ndarray | None = None  # (3,) the UAV's position, None when no UAV flies
     sensitivity: np.ndarray | None = None  # (M, 4, 4) d truth / d true start on [x, y, vx, vy] (planned truth)
+
+
+class FirstCommit(NamedTuple):
+    """The first step's committed clusters, made once per guidance (:meth:`Simulation.first_commit`)."""
+
+    reference: tuple  # the reference cloud's clusters (belief.particle.reference_clusters, with route probes added)
+    plans: list[list[Plan]]  # per target, its clusters' plans
+    gains: np.ndarray  # (M, K, T, 3, 4) their gains
+    events: list[str]  # what making them reported
+    capped: int  # solves the wall-clock cap stopped while making them (counted at every reuse)
 
 
 class Simulation:
@@ -294,7 +305,7 @@ class Simulation:
         k = self.m.filter.plan_clusters
         age = self.t - self._committed_at
         if self.t == 0:
-            reference, self.committed, self._gains, notes = self.first_commit(k)
+            reference, self.committed, self._gains, notes, _ = self.first_commit(k)
             mass = self.belief.commit(reference[0].shape[1], reference, reference[0].shape[1] - k)[2]
             events += notes
         elif age >= len(self.committed[0][0].controls):
@@ -306,7 +317,7 @@ class Simulation:
         self.plans = [_from_step(plans[int(np.argmax(w))], age) for plans, w in zip(self.committed, mass)]
         return np.array([[p.controls[age] for p in plans] for plans in self.committed]), self._gains[:, :, age]
 
-    def first_commit(self, k: int) -> tuple[tuple, list[list[Plan]], np.ndarray, list[str]]:
+    def first_commit(self, k: int) -> FirstCommit:
         """The first step's clusters (:func:`.belief.particle.reference_clusters` of a cloud
         drawn from the priors with :data:`REFERENCE_SEED`, restricted as the belief's is), their
         plans (warm-started from the plans at the priors), gains and events: the same in every
@@ -319,7 +330,7 @@ class Simulation:
         key = ("first commit", k, m.filter.particles, m.filter.keep_out, m.filter.route_probes, means0.tobytes(),
                covs0.tobytes(), np.array(m.goals).tobytes())
         if key in self.guidance.kept:  # its capped solves (Plan.capped) count in every trial that reuses it
-            self.guidance.capped += self.guidance.kept[key][4]
+            self.guidance.capped += self.guidance.kept[key].capped
         else:
             capped = self.guidance.capped
             clear = self._clear if m.filter.keep_out else None
@@ -332,8 +343,8 @@ class Simulation:
                 reference, plans, gains = self._probe_routes(cloud[:, :m.filter.route_probes], reference, plans, gains)
             for a in (*reference, gains):
                 a.flags.writeable = False  # shared by every trial that keeps this guidance
-            self.guidance.kept[key] = (reference, plans, gains, events, self.guidance.capped - capped)
-        return self.guidance.kept[key][:4]
+            self.guidance.kept[key] = FirstCommit(reference, plans, gains, events, self.guidance.capped - capped)
+        return self.guidance.kept[key]
 
     def _probe_routes(self, probes: np.ndarray, reference: tuple, plans: list[list[Plan]], gains: np.ndarray
                       ) -> tuple[tuple, list[list[Plan]], np.ndarray]:
@@ -367,10 +378,11 @@ class Simulation:
         ``mu (K, 6)``, covariances ``cv``, plans ``pl`` and gains ``gn (K, T, 3, 4)`` and the
         clustering's ``scale (4,)``."""
         added: list[tuple] = []
-        for x in starts:
+        warm = self._prior_plan(j)  # the truth's own warm start (truth.Truth._first_plan): a budget-limited
+        for x in starts:            # search keeps its warm start's route, so another one finds other routes
             near = int(np.argmin(((mu - x)[:, HORIZONTAL] ** 2 / scale**2).sum(1)))
-            own = self.guidance.plan(x, cv[near], self.m.goals[j], warm=pl[near], step=self.t, shift=0)
-            if own.status != "optimal" or own.moved_start or len(own.controls) != len(pl[0].controls):
+            own = self.guidance.plan(x, cv[near], self.m.goals[j], warm=warm, step=self.t, shift=0)
+            if not (own.ok and own.guarded_from == 2) or own.moved_start or len(own.controls) != len(pl[0].controls):
                 continue
             flown = model_positions(x, mu, np.array([p.controls for p in pl]), gn, self.m.dynamics)
             if np.linalg.norm(flown - own.means[None, :, :2], axis=2).max(1).min() <= route_gap(scale):
