@@ -361,7 +361,8 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-route-probes": "tracking-route-probes.json", "towns-large-probes": "tracking-large-probes.json",
     "towns-grid-probes": "tracking-grid-probes.json", "towns-seek": "tracking-seek.json",
     "towns-large-60": "tracking-large-60.json", "towns-grid-seek": "tracking-grid-seek.json",
-    "towns-medium-seek": "tracking-medium-seek.json", "towns-large-altitude": "tracking-large-altitude.json"}
+    "towns-medium-seek": "tracking-medium-seek.json", "towns-large-altitude": "tracking-large-altitude.json",
+    "towns-probes-before": "tracking-probes-before.json", "towns-probes-truth": "tracking-probes-truth.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
