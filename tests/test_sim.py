@@ -445,13 +445,13 @@ def test_route_probes_add_a_cluster_for_a_route_none_takes():
     assert (np.array(miss[32])[~west] <= np.array(miss[0])[~west] + 1e-9).all()
 
 
-def test_route_probes_are_planned_as_the_truth_would_be():
+def test_route_probes_are_planned_as_the_truth_would_be(monkeypatch):
     """A budget-limited search keeps its warm start's route, and the truth flies the plan
     its search finds from its start, warm from the plan at its prior mean, certified or
     not (``Truth._first_plan``).  A probe stands for such a truth, so it is planned the same
-    way: every probe's solve is warm-started from the plan at the target's prior mean (on
-    the shipped Helsinki world, warm from the nearest cluster's plan instead, 8 of 40 starts in one
-    target's prior tail planned another route than the truth's from the same start), and a
+    way: every probe's solve is warm-started from the plan at the target's prior mean (on the
+    shipped Helsinki world, warm from the nearest cluster's plan instead, 8 of 40 starts in
+    one target's prior tail planned another route than the truth's from the same start), and a
     probe whose plan is only feasible adds its route as a certified one does: with every
     probe's plan marked ``feasible`` T1 still gets its west cluster (the test above)."""
     defaults = {"steps": 30, "trials": 10, "filter.motion": "commit", "filter.plan_clusters": 16,
@@ -475,11 +475,8 @@ def test_route_probes_are_planned_as_the_truth_would_be():
         finally:
             del self.guidance.plan
 
-    Simulation._route_clusters = spied
-    try:
-        (_, _, _, live), *_ = sim.first_commit(16)
-    finally:
-        Simulation._route_clusters = probe
+    monkeypatch.setattr(Simulation, "_route_clusters", spied)
+    (_, _, _, live), *_ = sim.first_commit(16)
     assert len(warms) >= 4 * 32 - 8 and all(w is sim._prior_plan(j) for j, w in warms)
     assert (live.sum(axis=1) - 16)[0] == 1
 

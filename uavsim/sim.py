@@ -378,8 +378,10 @@ class Simulation:
         ``mu (K, 6)``, covariances ``cv``, plans ``pl`` and gains ``gn (K, T, 3, 4)`` and the
         clustering's ``scale (4,)``."""
         added: list[tuple] = []
-        warm = self._prior_plan(j)  # the truth's own warm start (truth.Truth._first_plan): a budget-limited
-        for x in starts:            # search keeps its warm start's route, so another one finds other routes
+        # planned as the truth from x is (truth.Truth._first_plan): warm from the plan at the prior mean, kept
+        # uncertified; a search its budget stops keeps its warm start's route, so another warm start finds others
+        warm = self._prior_plan(j)
+        for x in starts:
             near = int(np.argmin(((mu - x)[:, HORIZONTAL] ** 2 / scale**2).sum(1)))
             own = self.guidance.plan(x, cv[near], self.m.goals[j], warm=warm, step=self.t, shift=0)
             if not (own.ok and own.guarded_from == 2) or own.moved_start or len(own.controls) != len(pl[0].controls):
