@@ -63,7 +63,7 @@ from .guidance import Guidance, Plan
 from .mission import Mission
 from .sensing import Scan
 from .targets import HORIZONTAL
-from .truth import Truth, clear_starts
+from .truth import Truth, clear_starts, prior_plan
 from .uav import make_policy
 from .world.routes import GoalField
 
@@ -255,9 +255,7 @@ class Simulation:
     def _prior_plan(self, j: int) -> Plan | None:
         """Target j's plan from its prior mean, the same in every trial (the guidance keeps
         it), None if there is none."""
-        t = self.m.targets[j]
-        plan = self.guidance.plan(t.mean0, t.cov0, self.m.goals[j])
-        return plan if plan.ok else None
+        return prior_plan(self.guidance, self.m.targets[j], self.m.goals[j])
 
     def _plan_controls(self, previous: list[Plan | None], shift: int, events: list[str]
                        ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray] | None]:
@@ -378,7 +376,7 @@ class Simulation:
         ``mu (K, 6)``, covariances ``cv``, plans ``pl`` and gains ``gn (K, T, 3, 4)`` and the
         clustering's ``scale (4,)``."""
         added: list[tuple] = []
-        # planned as the truth from x is (truth.Truth._first_plan): warm from the plan at the prior mean, kept
+        # planned as the truth from x is (truth.Truth._first_plan): warm from truth.prior_plan, kept
         # uncertified; a search its budget stops keeps its warm start's route, so another warm start finds others
         warm = self._prior_plan(j)
         for x in starts:

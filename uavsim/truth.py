@@ -39,7 +39,7 @@ from .declare import SettingError
 from .guidance import Guidance, Plan
 from .guidance.model import geometry
 from .mission import Mission
-from .targets import HORIZONTAL
+from .targets import HORIZONTAL, Target
 
 START_DRAWS = 1000  # prior draws per target to find a free-space true start
 PLAN_TRIES = 20  # clear draws tried per target until one has a guidance plan that avoids every obstacle
@@ -107,6 +107,14 @@ def bound_prior(mission: Mission) -> tuple[np.ndarray, np.ndarray] | None:
     return start_prior(mission, np.random.default_rng(mission.seed)) if mission.truth == "planned" else None
 
 
+def prior_plan(guidance: Guidance, target: Target, goal: np.ndarray) -> Plan | None:
+    """The plan from ``target``'s prior ``N(mean0, cov0)`` to ``goal (3,)``, None if there is
+    none: the warm start of a true target's first plan, and so of every plan that stands for
+    one (the filter's first re-plans, its route probes).  The guidance keeps it (a cold plan)."""
+    plan = guidance.plan(target.mean0, target.cov0, goal)
+    return plan if plan.ok else None
+
+
 class Truth:
     """True states ``state (M, 6)`` of one trial; ``controls`` then ``move`` each step.
 
@@ -163,9 +171,8 @@ class Truth:
         can turn, or towards a wall it cannot stop short of, has none), noted as an event."""
         zero, goal = np.zeros((6, 6)), self.m.goals[j]
         tries = self._candidates[j][:PLAN_TRIES] if step == 0 else self.state[j:j + 1]
-        prior = self.m.targets[j]  # the filter's first re-plans start from the same plan
-        warm = self.guidance.plan(prior.mean0, prior.cov0, goal) if step == 0 else None
-        warm = warm if warm is not None and warm.ok else None
+        # the filter's first re-plans and its route probes start from the same plan
+        warm = prior_plan(self.guidance, self.m.targets[j], goal) if step == 0 else None
         failed: list[Plan] = []
         for x in tries:
             plan = self.guidance.plan(x, zero, goal, warm=warm, step=step, shift=0)
