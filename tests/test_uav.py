@@ -175,3 +175,38 @@ def test_seek_flies_to_a_far_target_when_its_bearing_pays_more_a_step():
     plan[30:, :2] = pos[:2] + [0.0, -600.0]  # on arrival (step 30) target 1 is due south
     best, step = move(600.0, 100.0, [None, plan])
     np.testing.assert_allclose(step, [20 * np.cos(np.radians(264)), 20 * np.sin(np.radians(264)), 0.0], atol=1e-9)
+
+
+class _Hidden(_Traces):
+    """:class:`_Traces` with both targets hidden from every move (each leaves 100 and 1000,
+    so Eq. (13) ties everywhere); a bearing from within 6 m of target 1 leaves ``left``."""
+
+    def traces(self, c, sensor):
+        above = np.hypot(*(c[:, :2] - self.mean[1, :2]).T) < 6.0
+        return np.column_stack([np.full(len(c), 100.0), np.where(above, self.left, 1000.0)])
+
+
+def test_moves_that_tie_in_eq_13_are_broken_toward_the_flight_that_pays():
+    """Every move leaves 1100, so Eq. (13)'s lowest index is "stay", for good: the UAV would
+    learn nothing (as on a Helsinki crop where no move saw a target).  Target 1's vantage,
+    600 m east, gains 900 over 30 steps (target 0's, where the UAV is, gains nothing), so
+    ``optimized`` and ``weighted`` take the tied move nearest target 1: ring 4 due east (row
+    60); with a forecast, the one nearest where the plan puts it on arrival (due south: ring 4
+    at 264 deg).  Hidden from its vantage too (it leaves 1000 there), no flight gains and they
+    stay (row 0)."""
+    from uavsim.uav import GridOptimizer, Weighted
+
+    m = load_mission(PAPER)
+    pos = np.array([200.0, 150.0, 40.0])  # clear of the paper's obstacles, every move admissible
+    plan = np.zeros((40, 6))
+    plan[:, :2] = pos[:2] + [600.0, 0.0]
+    plan[30:, :2] = pos[:2] + [0.0, -600.0]
+    for policy in (GridOptimizer(m), Weighted(m)):
+        policy.position = pos.copy()
+        cands, scores, best = policy.choose(_Hidden(pos, 600.0, 100.0))
+        assert np.ptp(scores) == 0 and best == 60
+        np.testing.assert_allclose(cands[best] - pos, [20.0, 0.0, 0.0], atol=1e-9)
+        cands, _, best = policy.choose(_Hidden(pos, 600.0, 100.0), [None, plan])
+        np.testing.assert_allclose(cands[best] - pos, [20 * np.cos(np.radians(264)), 20 * np.sin(np.radians(264)), 0.0],
+                                   atol=1e-9)
+        assert policy.choose(_Hidden(pos, 600.0, 1000.0))[2] == 0

@@ -30,6 +30,8 @@ from ..declare import SettingError, setting
 from ..mission import Mission
 from ..world import Region2D, World
 
+TIE_RTOL = 1e-9  # summed traces this close (relative) tie in Eq. (13): the same up to rounding
+
 
 @dataclass(frozen=True, eq=False)
 class UavConfig:
@@ -104,7 +106,8 @@ def uav_start(rng: np.random.Generator, uav: UavConfig, world: World, tries: int
 def decide(candidates: np.ndarray, admissible: np.ndarray, traces, weighted: bool = False
            ) -> tuple[int, np.ndarray]:
     """Eq. (13): index of the admissible candidate with the least summed trace (ties go
-    to the lowest index; row 0 is "stay"), and the summed traces ``(C,)`` (``inf`` for
+    to the lowest index, row 0 "stay"; the policies then break them,
+    :meth:`GridOptimizer.untie`), and the summed traces ``(C,)`` (``inf`` for
     inadmissible candidates).  ``traces(candidates)``
     gives ``(C, M)``: :func:`uavsim.belief.traces.pseudo_traces` or
     :func:`~uavsim.belief.traces.gaussian_traces` bound to the beliefs.
@@ -120,6 +123,11 @@ def decide(candidates: np.ndarray, admissible: np.ndarray, traces, weighted: boo
             t = t * (w / w.mean()) if w.mean() > 0 else t  # all zero: nothing to weigh
         total[admissible] = t.sum(axis=1)
     return int(np.argmin(total)), total
+
+
+def nearest(cands: np.ndarray, among: np.ndarray, goal: np.ndarray) -> int:
+    """Index of the candidate ``cands (C, 3)`` marked in ``among (C,)`` nearest ``goal (2,)``."""
+    return int(np.argmin(np.where(among, np.hypot(*(cands[:, :2] - goal).T), np.inf)))
 
 
 class OneUav:
@@ -158,7 +166,40 @@ class GridOptimizer(OneUav):
         plans, see :meth:`act`) is not needed one step ahead."""
         cands, ok = self.moves()
         best, scores = decide(cands, ok, lambda c: belief.traces(c, self.sensor), self.weighted)
-        return cands, scores, best
+        return cands, scores, self.untie(belief, forecast, cands, scores, best)
+
+    def untie(self, belief, forecast: list | None, cands: np.ndarray, scores: np.ndarray, best: int) -> int:
+        """``best``, or where several admissible moves tie with it (``scores (C,)`` within
+        :data:`TIE_RTOL`), the tied move nearest the point of :meth:`flight` when that
+        flight gains and is longer than one step (module docstring)."""
+        if not np.isfinite(scores[best]):
+            return best
+        tied = np.isclose(scores, scores[best], rtol=TIE_RTOL, atol=0.0)
+        if tied.sum() < 2:
+            return best
+        rate, steps, goal, _ = self.flight(belief, forecast)
+        if rate <= 0 or steps <= 1:
+            return best
+        return nearest(cands, tied, goal)
+
+    def flight(self, belief, forecast: list | None = None) -> tuple[float, float, np.ndarray, float]:
+        """The best flight to a target's vantage (:class:`Seek`): the summed trace its bearing
+        removes per step of the flight ``g_j / s_j``, the steps ``s_j``, the point to head for
+        ``(2,)`` (where the target's ``forecast`` puts it on arrival, else its predicted mean)
+        and the summed trace with no scan ``T``."""
+        mean, cov = belief.moments()
+        total = float(np.trace(cov, axis1=1, axis2=2).sum())
+        away = mean[:, :2] - self.position[:2]
+        dist = np.hypot(*away.T)
+        short = np.clip(1.0 - self.m.uav.step / np.maximum(dist, 1e-9), 0.0, None)[:, None]
+        vantage = np.column_stack([self.position[:2] + short * away, np.full(len(mean), self.m.uav.altitude)])
+        steps = np.maximum(1, np.ceil((dist - self.m.uav.step) / (self.m.uav.n_r * self.m.uav.step)))
+        rate = (total - belief.traces(vantage, self.sensor).sum(axis=1)) / steps
+        j = int(np.argmax(rate))
+        goal = mean[j, :2]
+        if forecast is not None and forecast[j] is not None:
+            goal = forecast[j][min(int(steps[j]), len(forecast[j]) - 1), :2]
+        return float(rate[j]), float(steps[j]), goal, total
 
     def act(self, t: int, belief, action: int | None = None, forecast: list | None = None
             ) -> tuple[np.ndarray, np.ndarray | None]:
@@ -196,25 +237,13 @@ class Seek(GridOptimizer):
     name = "seek"
 
     def choose(self, belief, forecast: list | None = None) -> tuple[np.ndarray, np.ndarray, int]:
-        cands, scores, best = super().choose(belief)
+        cands, scores, best = super().choose(belief, forecast)
         if not np.isfinite(scores[best]):
             return cands, scores, best
-        mean, cov = belief.moments()
-        total = float(np.trace(cov, axis1=1, axis2=2).sum())
-        away = mean[:, :2] - self.position[:2]
-        dist = np.hypot(*away.T)
-        short = np.clip(1.0 - self.m.uav.step / np.maximum(dist, 1e-9), 0.0, None)[:, None]
-        vantage = np.column_stack([self.position[:2] + short * away, np.full(len(mean), self.m.uav.altitude)])
-        steps = np.maximum(1, np.ceil((dist - self.m.uav.step) / (self.m.uav.n_r * self.m.uav.step)))
-        rate = (total - belief.traces(vantage, self.sensor).sum(axis=1)) / steps
-        j = int(np.argmax(rate))
-        if steps[j] <= 1 or rate[j] <= total - scores[best]:
+        rate, steps, goal, total = self.flight(belief, forecast)
+        if steps <= 1 or rate <= total - scores[best]:
             return cands, scores, best
-        goal = mean[j, :2]
-        if forecast is not None and forecast[j] is not None:
-            goal = forecast[j][min(int(steps[j]), len(forecast[j]) - 1), :2]
-        far = np.where(np.isfinite(scores), np.hypot(*(cands[:, :2] - goal).T), np.inf)
-        return cands, scores, int(np.argmin(far))
+        return cands, scores, nearest(cands, np.isfinite(scores), goal)
 
 
 class Weighted(GridOptimizer):

@@ -125,8 +125,8 @@ class Lookahead(GridOptimizer):
         """The myopic rule flown from each of ``starts (B, 3)`` for steps 1 .. H-1, with
         ``cov (B, M, 4, 4)`` the covariances after step 0's scan and ``centres (H, M, 2)``
         the predicted means.  Returns the summed traces ``(B,)`` and the paths ``(B, H, 3)``
-        (``starts`` first).  Ties go to the lowest move index, as in Eq. (13); staying is
-        always admissible where the UAV is."""
+        (``starts`` first).  Ties inside the rollout go to the lowest move index (the
+        first move's are broken by :meth:`choose`); staying is always admissible where the UAV is."""
         rows = np.arange(len(starts))
         pos, total, path = starts, np.zeros(len(starts)), [starts]
         for k in range(1, self.horizon):  # <= 50 steps; branches, moves and targets are vectorised
@@ -143,8 +143,8 @@ class Lookahead(GridOptimizer):
 
     def choose(self, belief, forecast: list | None = None) -> tuple[np.ndarray, np.ndarray, int]:
         """The candidates, each one's score (``inf``: not admissible) and the index of the
-        best; ties go to the lowest index, as in Eq. (13).  ``forecast``: per target the
-        means ``(T, 6)`` of the guidance plan the belief was predicted with."""
+        best; ties are broken as Eq. (13)'s (:meth:`GridOptimizer.untie`).  ``forecast``: per
+        target the means ``(T, 6)`` of the guidance plan the belief was predicted with."""
         cands, ok = self.moves()
         best = np.full(len(cands), np.inf)
         if ok.any():
@@ -154,5 +154,5 @@ class Lookahead(GridOptimizer):
             p0 = np.broadcast_to(cov[:, HORIZONTAL][:, :, HORIZONTAL], (len(first),) + (len(mean), 4, 4))
             later, _ = self.rollout(first, self.scan(p0, centres[0], first, predict=False), centres)
             best[ok] = belief.traces(first, self.sensor).sum(axis=1) + later  # Eq. (13), then the rollout
-        return cands, best, int(np.argmin(best))
+        return cands, best, self.untie(belief, forecast, cands, best, int(np.argmin(best)))
 
