@@ -362,7 +362,9 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-grid-probes": "tracking-grid-probes.json", "towns-seek": "tracking-seek.json",
     "towns-large-60": "tracking-large-60.json", "towns-grid-seek": "tracking-grid-seek.json",
     "towns-medium-seek": "tracking-medium-seek.json", "towns-large-altitude": "tracking-large-altitude.json",
-    "towns-probes-before": "tracking-probes-before.json", "towns-probes-truth": "tracking-probes-truth.json"}
+    "towns-probes-before": "tracking-probes-before.json", "towns-probes-truth": "tracking-probes-truth.json",
+    "towns-ties": "tracking-ties.json", "towns-ties-medium-before": "tracking-ties-medium-before.json",
+    "towns-ties-medium": "tracking-ties-medium.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
