@@ -210,3 +210,27 @@ def test_moves_that_tie_in_eq_13_are_broken_toward_the_flight_that_pays():
         np.testing.assert_allclose(cands[best] - pos, [20 * np.cos(np.radians(264)), 20 * np.sin(np.radians(264)), 0.0],
                                    atol=1e-9)
         assert policy.choose(_Hidden(pos, 600.0, 1000.0))[2] == 0
+
+
+def test_a_step_where_every_move_ties_is_reported(monkeypatch):
+    """:func:`every_move_ties` by hand: all admissible moves equal (an inadmissible one aside),
+    yes; one higher, or fewer than two admissible, or no scores (a policy that does not score),
+    no.  In the closed loop a step whose moves all tie says so in its events, once."""
+    from uavsim.sim import Simulation
+    from uavsim.uav.grid import GridOptimizer, every_move_ties
+
+    assert every_move_ties(np.array([5.0, 5.0, 5.0 * (1 + 1e-12), np.inf]))
+    assert not every_move_ties(np.array([5.0, 5.0, 6.0]))
+    assert not every_move_ties(np.array([5.0, np.inf, np.inf]))
+    assert not every_move_ties(None)
+
+    def flat(self, t, belief, action=None, forecast=None):
+        cands, ok = self.moves()
+        return cands, np.where(ok, 1.0, np.inf)
+
+    m = load_mission(PAPER, {"steps": 2, "filter.particles": 300})
+    sim = Simulation(m, "optimized")
+    sim.reset(1)
+    monkeypatch.setattr(GridOptimizer, "act", flat)
+    info = sim.step()
+    assert sum(e.startswith("UAV: every admissible move ties") for e in info.events) == 1

@@ -65,6 +65,7 @@ from .sensing import Scan
 from .targets import HORIZONTAL
 from .truth import Truth, clear_starts, prior_plan
 from .uav import make_policy
+from .uav.grid import every_move_ties
 from .world.routes import GoalField
 
 __all__ = ["Simulation", "StepInfo", "target_bearings"]  # the public interface (docs/api.md renders each)
@@ -186,6 +187,9 @@ class Simulation:
         t3 = time.perf_counter()
         forecast = None if self.oracle else [p.means for p in self.plans]
         moves = self.policy.act(self.t, self.belief, action, forecast)
+        if action is None and every_move_ties(moves[1]):
+            events.append("UAV: every admissible move ties in Eq. (13) (no move's bearing tells more than another's); "
+                          "broken toward the flight that pays, if one does (docs/methods/decision.md, Ties)")
         sec["planner"] = time.perf_counter() - t3
         t4 = time.perf_counter()
         self.truth.move(self.t, self._truth_controls)

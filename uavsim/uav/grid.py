@@ -125,6 +125,19 @@ def decide(candidates: np.ndarray, admissible: np.ndarray, traces, weighted: boo
     return int(np.argmin(total)), total
 
 
+def ties(scores: np.ndarray, best: int) -> np.ndarray:
+    """``(C,)`` bool: the moves whose ``scores (C,)`` tie with ``scores[best]`` (:data:`TIE_RTOL`)."""
+    return np.isclose(scores, scores[best], rtol=TIE_RTOL, atol=0.0)
+
+
+def every_move_ties(scores: np.ndarray | None) -> bool:
+    """True when two or more moves are admissible (``scores (C,)`` finite) and all tie: no
+    move's scan would tell more than another's (under line of sight, none sees a target)."""
+    if scores is None or np.isfinite(scores).sum() < 2:
+        return False
+    return bool(ties(scores, int(np.argmin(scores)))[np.isfinite(scores)].all())
+
+
 def nearest(cands: np.ndarray, among: np.ndarray, goal: np.ndarray) -> int:
     """Index of the candidate ``cands (C, 3)`` marked in ``among (C,)`` nearest ``goal (2,)``."""
     return int(np.argmin(np.where(among, np.hypot(*(cands[:, :2] - goal).T), np.inf)))
@@ -174,7 +187,7 @@ class GridOptimizer(OneUav):
         flight gains and is longer than one step (module docstring)."""
         if not np.isfinite(scores[best]):
             return best
-        tied = np.isclose(scores, scores[best], rtol=TIE_RTOL, atol=0.0)
+        tied = ties(scores, best)
         if tied.sum() < 2:
             return best
         rate, steps, goal, _ = self.flight(belief, forecast)
