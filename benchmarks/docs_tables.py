@@ -365,7 +365,7 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-probes-before": "tracking-probes-before.json", "towns-probes-truth": "tracking-probes-truth.json",
     "towns-ties": "tracking-ties.json", "towns-ties-medium-before": "tracking-ties-medium-before.json",
     "towns-ties-medium": "tracking-ties-medium.json", "towns-ties-large-before": "tracking-ties-large-before.json",
-    "towns-ties-large": "tracking-ties-large.json"}
+    "towns-ties-large": "tracking-ties-large.json", "towns-ties-20": "tracking-ties-20.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
