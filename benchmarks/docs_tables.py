@@ -365,7 +365,9 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-probes-before": "tracking-probes-before.json", "towns-probes-truth": "tracking-probes-truth.json",
     "towns-ties": "tracking-ties.json", "towns-ties-medium-before": "tracking-ties-medium-before.json",
     "towns-ties-medium": "tracking-ties-medium.json", "towns-ties-large-before": "tracking-ties-large-before.json",
-    "towns-ties-large": "tracking-ties-large.json", "towns-ties-20": "tracking-ties-20.json"}
+    "towns-ties-large": "tracking-ties-large.json", "towns-ties-20": "tracking-ties-20.json",
+    "towns-switch-gate": "tracking-switch-gate.json", "towns-switch-gate-b": "tracking-switch-gate-b.json",
+    "towns-switch-gate-grid-before": "tracking-switch-gate-grid-before.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
