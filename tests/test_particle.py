@@ -14,13 +14,13 @@ from uavsim.belief.particle import (
     cluster_weights,
     clusters,
     halves,
-    inside_cloud,
     join_clusters,
     label_mass,
     reference_clusters,
     restricted_draws,
     systematic_indices,
     weighted_moments,
+    within_spread,
 )
 from uavsim.sensing import BearingModel, log_likelihood, uniform_loglik, wrap_angle
 from uavsim.targets import Dynamics
@@ -408,7 +408,7 @@ def test_route_switch_takes_a_nearest_cluster_and_flies_its_model():
     np.testing.assert_array_equal(b.neighbours[0, :3], [[1, 2, 3], [0, 2, 3], [1, 0, 3]])
     rng = np.random.default_rng(2)
     b.nominal, b.sens = rng.normal(size=(1, 6, 6)) * 50.0, rng.normal(size=(1, 6, 6, 4))
-    # the noise gathered so far, wide enough that the switches land inside the cloud (SWITCH_SUPPORT)
+    # the noise gathered so far, wide enough that every switch lands inside the cloud (SWITCH_SUPPORT)
     b.pf.particles += rng.normal(size=b.pf.particles.shape) * 1000.0
 
     def start_and_noise():
@@ -421,8 +421,7 @@ def test_route_switch_takes_a_nearest_cluster_and_flies_its_model():
     for got, want in zip(start_and_noise(), before):
         np.testing.assert_allclose(got, want, atol=1e-9)
     counts = np.bincount(b.pf.label[0], minlength=6)
-    assert counts[[4, 5]].tolist() == [0, 0]
-    assert counts[0] <= 0.005 * n  # the cloud's own tail beyond its 99.9% region may not switch (SWITCH_SUPPORT)
+    assert counts[[0, 4, 5]].tolist() == [0, 0, 0]
     np.testing.assert_array_less(np.abs(counts[1:4] / n - 1 / 3), 4 * math.sqrt(2 / 9 / n))
     # the plans' paths step on with the particles: noise-free, a particle stays on its cluster's model
     b.route_switch = 0.0
@@ -433,18 +432,16 @@ def test_route_switch_takes_a_nearest_cluster_and_flies_its_model():
     np.testing.assert_allclose(start_and_noise()[1], 0.0, atol=1e-6)
 
 
-def test_a_route_switch_that_would_leave_the_cloud_is_refused():
-    """The geometry above, the cloud in cluster 0 near x = 0 (spread 2 m), cluster 2's model
-    500 m away and the others' at the cloud: the third of the cloud that draws cluster 2
-    stays as it was (label, offset and state), the rest switch.  30 particles of no weight
-    sit on cluster 2's model, 500 m out: every one of them switches back into the cloud
-    (their own start, x = 3 plus their offset).  The gate by hand: four equally weighted
-    points at (40 +- 1, 40 +- 1) have mean (40, 40) and covariance I, so (43.7, 40) is
-    inside (3.7^2 = 13.69 <= SWITCH_SUPPORT = 13.8) and (43.72, 40) is not (13.84)."""
+def test_a_route_switch_that_jumps_farther_than_the_cloud_is_wide_is_refused():
+    """The geometry above, every particle in cluster 0 near x = 0 (spread 1 m), cluster 2's
+    model 500 m away and the others' at the cloud: the third of the particles that draw
+    cluster 2 stay as they were (label, offset and state), the rest switch.  The gate by
+    hand: four equally weighted points at (+-1, +-1) have covariance I, so a step (3.7, 0)
+    is within SWITCH_SUPPORT = 13.8 (3.7^2 = 13.69) and (3.72, 0) is not (13.84)."""
     square = np.array([[[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]]]) + 40.0
-    got = inside_cloud(square, np.full((1, 4), 0.25), np.zeros(2, int), np.array([[43.7, 40.0], [43.72, 40.0]]))
+    got = within_spread(square, np.full((1, 4), 0.25), np.zeros(2, int), np.array([[3.7, 0.0], [3.72, 0.0]]))
     assert got.tolist() == [True, False]
-    n, out = 3000, 30
+    n = 3000
     b = ParticleBelief(np.random.default_rng(1), np.zeros((1, 6)), np.eye(6)[None], n, 0.5, 0.0, ("T1",),
                        route_switch=1.0)
     b.pf.particles[:] = 0.0
@@ -452,23 +449,17 @@ def test_a_route_switch_that_would_leave_the_cloud_is_refused():
     means = np.zeros((1, 6, 6))
     means[0, :, 0] = [0.0, 1.0, 3.0, 6.0, 20.0, 0.5]
     b.commit(6, (means, np.broadcast_to(np.eye(6), (1, 6, 6, 6)), np.ones((1, 4)), np.array([[True] * 5 + [False]])))
-    b.pf.particles[0, :, :2] += 2.0 * np.random.default_rng(2).normal(size=(n, 2))
+    b.pf.particles[0, :, :2] += np.random.default_rng(2).normal(size=(n, 2))
     b.nominal = means.copy()  # each cluster's model at its own start ...
     b.nominal[0, 2, 0] = 500.0  # ... but cluster 2's, which has run off
-    b.pf.label[0, :out] = 2  # on its model: 500 m plus their offset
-    b.pf.particles[0, :out] = b.nominal[0, 2] + np.einsum("ij,nj->ni", b.sens[0, 2], b.pf.offset[0, :out])
-    logw = np.full((1, n), -np.log(n - out))
-    logw[0, :out] = -np.inf
-    b.pf.logw = logw
     before, offset = b.pf.particles.copy(), b.pf.offset.copy()
     b._switch_routes()
     counts = np.bincount(b.pf.label[0], minlength=6)
     assert counts[2] == 0
     np.testing.assert_array_less(np.abs(counts[[0, 1, 3]] / n - 1 / 3), 4 * math.sqrt(2 / 9 / n))
-    stayed = (b.pf.label[0] == 0) & (np.arange(n) >= out)
+    stayed = b.pf.label[0] == 0
     np.testing.assert_array_equal(b.pf.particles[0, stayed], before[0, stayed])
     np.testing.assert_array_equal(b.pf.offset[0, stayed], offset[0, stayed])
-    np.testing.assert_allclose(b.pf.particles[0, :out, 0], 3.0 + offset[0, :out, 0], atol=1e-9)
 
 
 def test_particle_filter_matches_kalman_on_linear_gaussian_toy():
