@@ -367,7 +367,8 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-ties-medium": "tracking-ties-medium.json", "towns-ties-large-before": "tracking-ties-large-before.json",
     "towns-ties-large": "tracking-ties-large.json", "towns-ties-20": "tracking-ties-20.json",
     "towns-switch-gate": "tracking-switch-gate.json", "towns-switch-gate-b": "tracking-switch-gate-b.json",
-    "towns-switch-gate-grid-before": "tracking-switch-gate-grid-before.json"}
+    "towns-switch-gate-grid-before": "tracking-switch-gate-grid-before.json",
+    "towns-switch-gate-large": "tracking-switch-gate-large.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
