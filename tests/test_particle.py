@@ -408,7 +408,7 @@ def test_route_switch_takes_a_nearest_cluster_and_flies_its_model():
     np.testing.assert_array_equal(b.neighbours[0, :3], [[1, 2, 3], [0, 2, 3], [1, 0, 3]])
     rng = np.random.default_rng(2)
     b.nominal, b.sens = rng.normal(size=(1, 6, 6)) * 50.0, rng.normal(size=(1, 6, 6, 4))
-    # the noise gathered so far, wide enough that every switch lands inside the cloud (SWITCH_SUPPORT)
+    # the noise gathered so far, wide enough that no switch jumps farther than the cloud is wide (SWITCH_SUPPORT)
     b.pf.particles += rng.normal(size=b.pf.particles.shape) * 1000.0
 
     def start_and_noise():
