@@ -236,9 +236,7 @@ def within_spread(positions: np.ndarray, weights: np.ndarray, rows: np.ndarray, 
     its squared Mahalanobis length in the cloud's weighted covariance at most
     :data:`SWITCH_SUPPORT`; the clouds: ``positions (M, N, 2)``, ``weights (M, N)``.  In a
     cloud of no spread only a zero step is."""
-    mean = np.einsum("mn,mni->mi", weights, positions)
-    dev = positions - mean[:, None]
-    cov = np.einsum("mn,mni,mnj->mij", weights, dev, dev)
+    cov = weighted_moments(positions, weights)[1]
     sol = np.linalg.solve(cov[rows] + 1e-9 * np.eye(2), steps[..., None])[..., 0]
     return (steps * sol).sum(axis=1) <= SWITCH_SUPPORT
 
