@@ -433,14 +433,22 @@ def test_route_switch_takes_a_nearest_cluster_and_flies_its_model():
 
 
 def test_a_route_switch_that_jumps_farther_than_the_cloud_is_wide_is_refused():
-    """The geometry above, every particle in cluster 0 near x = 0 (spread 1 m), cluster 2's
-    model 500 m away and the others' at the cloud: the third of the particles that draw
-    cluster 2 stay as they were (label, offset and state), the rest switch.  The gate by
-    hand: four equally weighted points at (+-1, +-1) have covariance I, so a step (3.7, 0)
-    is within SWITCH_SUPPORT = 13.8 (3.7^2 = 13.69) and (3.72, 0) is not (13.84)."""
+    """The geometry above, every particle but three in cluster 0 near x = 0 (spread 1 m),
+    cluster 2's model 500 m away and the others' at the cloud: the third of the particles
+    that draw cluster 2 stay as they were (label, offset and state), the rest switch.  The
+    three on cluster 2 (near x = 500, with it) switch back into the cloud: their jumps are
+    long but land inside it.  The gate by
+    hand: four equally weighted points at (+-1, +-1) + 40 have mean (40, 40) and covariance
+    I, so from the mean a step (3.7, 0) is within SWITCH_SUPPORT = 13.8 (3.7^2 = 13.69) and
+    (3.72, 0) is not (13.84); from (40, 40) + (-3.72, 0) the same step (3.72, 0) lands on the
+    mean and is; from (40, 40) + (-100, 0) a step (96.3, 0) lands 3.7 short and is, (96.28, 0)
+    lands 3.72 short and is not; from (40, 40) + (3.7, 0) a step (3.7, 0) is short but lands
+    7.4 out, and is."""
     square = np.array([[[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]]]) + 40.0
-    got = within_spread(square, np.full((1, 4), 0.25), np.zeros(2, int), np.array([[3.7, 0.0], [3.72, 0.0]]))
-    assert got.tolist() == [True, False]
+    starts = 40.0 + np.array([[0.0, 0.0], [0.0, 0.0], [-3.72, 0.0], [-100.0, 0.0], [-100.0, 0.0], [3.7, 0.0]])
+    steps = np.array([[3.7, 0.0], [3.72, 0.0], [3.72, 0.0], [96.3, 0.0], [96.28, 0.0], [3.7, 0.0]])
+    got = within_spread(square, np.full((1, 4), 0.25), np.zeros(6, int), starts, steps)
+    assert got.tolist() == [True, False, True, True, False, True]
     n = 3000
     b = ParticleBelief(np.random.default_rng(1), np.zeros((1, 6)), np.eye(6)[None], n, 0.5, 0.0, ("T1",),
                        route_switch=1.0)
@@ -452,14 +460,18 @@ def test_a_route_switch_that_jumps_farther_than_the_cloud_is_wide_is_refused():
     b.pf.particles[0, :, :2] += np.random.default_rng(2).normal(size=(n, 2))
     b.nominal = means.copy()  # each cluster's model at its own start ...
     b.nominal[0, 2, 0] = 500.0  # ... but cluster 2's, which has run off
+    b.pf.label[0, :3] = 2  # three particles that ran off with it: x about 500, the cloud 16 m wide in x
+    b.pf.particles[0, :3, 0] += 500.0 - 3.0
     before, offset = b.pf.particles.copy(), b.pf.offset.copy()
     b._switch_routes()
     counts = np.bincount(b.pf.label[0], minlength=6)
     assert counts[2] == 0
     np.testing.assert_array_less(np.abs(counts[[0, 1, 3]] / n - 1 / 3), 4 * math.sqrt(2 / 9 / n))
-    stayed = b.pf.label[0] == 0
+    stayed = (b.pf.label[0] == 0) & (np.arange(n) >= 3)
     np.testing.assert_array_equal(b.pf.particles[0, stayed], before[0, stayed])
     np.testing.assert_array_equal(b.pf.offset[0, stayed], offset[0, stayed])
+    # the run-off three jump 490-500 m back into the cloud, a jump 30 widths long that lands inside
+    np.testing.assert_array_less(np.abs(b.pf.particles[0, :3, 0]), 10.0)
 
 
 def test_particle_filter_matches_kalman_on_linear_gaussian_toy():

@@ -66,7 +66,7 @@ PRIOR_ROUNDS = 8  # rejection rounds of a restricted prior (restricted_draws)
 PRIOR_BATCH = 100  # a round draws at most this many times the particles per target
 COLLAPSED_M = 1e-3  # m: a cloud with a smaller position spread has collapsed (ParticleBelief._collapsed)
 ROUTE_NEIGHBOURS = 3  # the clusters a particle may switch to (ParticleBelief._switch_routes)
-SWITCH_SUPPORT = 13.8  # chi-square(2) at 0.999: a route switch moves a particle no farther (_switch_routes)
+SWITCH_SUPPORT = 13.8  # chi-square(2) at 0.999: a route switch's reach (_switch_routes, within_spread)
 
 
 class ParticleFilter:
@@ -231,14 +231,17 @@ class ParticleFilter:
         return weighted_moments(self.particles, self.weights, self._work)
 
 
-def within_spread(positions: np.ndarray, weights: np.ndarray, rows: np.ndarray, steps: np.ndarray) -> np.ndarray:
-    """``(S,)`` bool: each of ``steps (S, 2)`` is no longer than cloud ``rows (S,)`` is wide,
-    its squared Mahalanobis length in the cloud's weighted covariance at most
-    :data:`SWITCH_SUPPORT`; the clouds: ``positions (M, N, 2)``, ``weights (M, N)``.  In a
-    cloud of no spread only a zero step is."""
-    cov = weighted_moments(positions, weights)[1]
-    sol = np.linalg.solve(cov[rows] + 1e-9 * np.eye(2), steps[..., None])[..., 0]
-    return (steps * sol).sum(axis=1) <= SWITCH_SUPPORT
+def within_spread(positions: np.ndarray, weights: np.ndarray, rows: np.ndarray, starts: np.ndarray,
+                  steps: np.ndarray) -> np.ndarray:
+    """``(S,)`` bool: a step ``steps (S, 2)`` from ``starts (S, 2)`` stays within cloud
+    ``rows (S,)``: it is no longer than the cloud is wide, or it ends inside the cloud
+    (squared Mahalanobis length, or distance from the weighted mean, in the cloud's
+    weighted covariance at most :data:`SWITCH_SUPPORT`); the clouds: ``positions (M, N, 2)``,
+    ``weights (M, N)``.  In a cloud of no spread only a zero step, or one to the mean, is."""
+    mean, cov = weighted_moments(positions, weights)
+    ends = starts + steps - mean[rows]
+    sol = np.linalg.solve(cov[rows] + 1e-9 * np.eye(2), np.stack([steps, ends], axis=-1))  # (S, 2, 2)
+    return (np.stack([steps, ends], axis=-1) * sol).sum(axis=1).min(axis=1) <= SWITCH_SUPPORT
 
 
 def nearest_label(particles: np.ndarray, label: np.ndarray, fresh: np.ndarray) -> np.ndarray:
@@ -633,12 +636,14 @@ class ParticleBelief:
         route lies far from its neighbours' by construction, and a jump onto it moves a
         particle by the whole difference.
 
-        A switch that would move a particle farther than its cloud is wide (the move's squared
-        Mahalanobis length in the cloud's weighted position covariance over
+        A switch that would move a particle farther than its cloud is wide and leave it outside
+        the cloud (the move's squared Mahalanobis length, and its landing point's distance from
+        the cloud's weighted mean, in the cloud's weighted position covariance, both over
         :data:`SWITCH_SUPPORT`, :func:`within_spread`) is refused: the particle keeps the
         weight the bearings gave it on its old route, and a jump out of the cloud would carry
         that weight where no bearing tested it (a cluster whose model had run 500 m off took
-        18% of a belief in one unseen step)."""
+        18% of a belief in one unseen step).  A particle whose own cluster has run off may
+        jump back in however far."""
         rows, cols = np.nonzero(self.rng.random(self.pf.label.shape) < self.route_switch)
         if not rows.size:
             return
@@ -651,7 +656,8 @@ class ParticleBelief:
             return self.nominal[rows, c] + np.einsum("sij,sj->si", self.sens[rows, c], o)
 
         jump = model(new, o_new) - model(old, o_old)
-        keep = within_spread(self.pf.particles[..., :2], self.pf.weights, rows, jump[:, :2])
+        keep = within_spread(self.pf.particles[..., :2], self.pf.weights, rows, self.pf.particles[rows, cols, :2],
+                             jump[:, :2])
         rows, cols = rows[keep], cols[keep]
         self.pf.particles[rows, cols] += jump[keep]
         self.pf.label[rows, cols], self.pf.offset[rows, cols] = new[keep], o_new[keep]
