@@ -239,9 +239,9 @@ def within_spread(positions: np.ndarray, weights: np.ndarray, rows: np.ndarray, 
     weighted covariance at most :data:`SWITCH_SUPPORT`); the clouds: ``positions (M, N, 2)``,
     ``weights (M, N)``.  In a cloud of no spread only a zero step, or one to the mean, is."""
     mean, cov = weighted_moments(positions, weights)
-    ends = starts + steps - mean[rows]
-    sol = np.linalg.solve(cov[rows] + 1e-9 * np.eye(2), np.stack([steps, ends], axis=-1))  # (S, 2, 2)
-    return (np.stack([steps, ends], axis=-1) * sol).sum(axis=1).min(axis=1) <= SWITCH_SUPPORT
+    both = np.stack([steps, starts + steps - mean[rows]], axis=-1)  # (S, 2, 2): the step, the landing point
+    sol = np.linalg.solve(cov[rows] + 1e-9 * np.eye(2), both)
+    return (both * sol).sum(axis=1).min(axis=1) <= SWITCH_SUPPORT
 
 
 def nearest_label(particles: np.ndarray, label: np.ndarray, fresh: np.ndarray) -> np.ndarray:
