@@ -368,7 +368,10 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-ties-large": "tracking-ties-large.json", "towns-ties-20": "tracking-ties-20.json",
     "towns-switch-gate": "tracking-switch-gate.json", "towns-switch-gate-b": "tracking-switch-gate-b.json",
     "towns-switch-gate-grid-before": "tracking-switch-gate-grid-before.json",
-    "towns-switch-gate-large": "tracking-switch-gate-large.json"}
+    "towns-switch-gate-large": "tracking-switch-gate-large.json",
+    "towns-switch-either": "tracking-switch-either.json", "towns-switch-either-b": "tracking-switch-either-b.json",
+    "towns-switch-either-grid": "tracking-switch-either-grid.json",
+    "towns-switch-either-large": "tracking-switch-either-large.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
