@@ -437,13 +437,13 @@ def test_a_route_switch_that_jumps_farther_than_the_cloud_is_wide_is_refused():
     cluster 2's model 500 m away and the others' at the cloud: the third of the particles
     that draw cluster 2 stay as they were (label, offset and state), the rest switch.  The
     three on cluster 2 (near x = 500, with it) switch back into the cloud: their jumps are
-    long but land inside it.  The gate by
-    hand: four equally weighted points at (+-1, +-1) + 40 have mean (40, 40) and covariance
-    I, so from the mean a step (3.7, 0) is within SWITCH_SUPPORT = 13.8 (3.7^2 = 13.69) and
-    (3.72, 0) is not (13.84); from (40, 40) + (-3.72, 0) the same step (3.72, 0) lands on the
-    mean and is; from (40, 40) + (-100, 0) a step (96.3, 0) lands 3.7 short and is, (96.28, 0)
-    lands 3.72 short and is not; from (40, 40) + (3.7, 0) a step (3.7, 0) is short but lands
-    7.4 out, and is."""
+    long but land inside it.  The gate by hand: four equally weighted points at (+-1, +-1)
+    + 40 have mean (40, 40) and covariance I, so from the mean a step (3.7, 0) is within
+    SWITCH_SUPPORT = 13.8 (3.7^2 = 13.69) and (3.72, 0) is not (13.84); from (40, 40) +
+    (-3.72, 0) the same step (3.72, 0) lands on the mean and is; from (40, 40) + (-100, 0) a
+    step (96.3, 0) lands 3.7 short and is, (96.28, 0) lands 3.72 short and is not; from
+    (40, 40) + (3.7, 0) a step (3.7, 0) is short but lands 7.4 out, and is (the landing
+    test alone would refuse it, the length test alone the third and fourth)."""
     square = np.array([[[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]]]) + 40.0
     starts = 40.0 + np.array([[0.0, 0.0], [0.0, 0.0], [-3.72, 0.0], [-100.0, 0.0], [-100.0, 0.0], [3.7, 0.0]])
     steps = np.array([[3.7, 0.0], [3.72, 0.0], [3.72, 0.0], [96.3, 0.0], [96.28, 0.0], [3.7, 0.0]])
