@@ -371,7 +371,8 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-switch-gate-large": "tracking-switch-gate-large.json",
     "towns-switch-either": "tracking-switch-either.json", "towns-switch-either-b": "tracking-switch-either-b.json",
     "towns-switch-either-grid": "tracking-switch-either-grid.json",
-    "towns-switch-either-large": "tracking-switch-either-large.json"}
+    "towns-switch-either-large": "tracking-switch-either-large.json",
+    "towns-switch-either-large20": "tracking-switch-either-large20.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
