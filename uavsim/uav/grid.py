@@ -181,16 +181,18 @@ class GridOptimizer(OneUav):
         best, scores = decide(cands, ok, lambda c: belief.traces(c, self.sensor), self.weighted)
         return cands, scores, self.untie(belief, forecast, cands, scores, best)
 
-    def untie(self, belief, forecast: list | None, cands: np.ndarray, scores: np.ndarray, best: int) -> int:
+    def untie(self, belief, forecast: list | None, cands: np.ndarray, scores: np.ndarray, best: int,
+              flight: tuple | None = None) -> int:
         """``best``, or where several admissible moves tie with it (``scores (C,)`` within
         :data:`TIE_RTOL`), the tied move nearest the point of :meth:`flight` when that
-        flight gains and is longer than one step (module docstring)."""
+        flight gains and is longer than one step (module docstring).  ``flight``: what
+        :meth:`flight` returned this step, if the caller has it."""
         if not np.isfinite(scores[best]):
             return best
         tied = ties(scores, best)
         if tied.sum() < 2:
             return best
-        rate, steps, goal, _ = self.flight(belief, forecast)
+        rate, steps, goal, _ = flight or self.flight(belief, forecast)
         if rate <= 0 or steps <= 1:
             return best
         return nearest(cands, tied, goal)
@@ -250,12 +252,14 @@ class Seek(GridOptimizer):
     name = "seek"
 
     def choose(self, belief, forecast: list | None = None) -> tuple[np.ndarray, np.ndarray, int]:
-        cands, scores, best = super().choose(belief, forecast)
+        cands, ok = self.moves()
+        best, scores = decide(cands, ok, lambda c: belief.traces(c, self.sensor), self.weighted)
         if not np.isfinite(scores[best]):
             return cands, scores, best
-        rate, steps, goal, total = self.flight(belief, forecast)
+        flight = self.flight(belief, forecast)
+        rate, steps, goal, total = flight
         if steps <= 1 or rate <= total - scores[best]:
-            return cands, scores, best
+            return cands, scores, self.untie(belief, forecast, cands, scores, best, flight)
         return cands, scores, nearest(cands, np.isfinite(scores), goal)
 
 
