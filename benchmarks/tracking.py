@@ -26,7 +26,9 @@ and the filter's re-plans alike); ``no-keep-out``: the mission's filter with its
 free to cross obstacles and its prior unrestricted (``filter.keep_out = false``; its
 baseline likewise, ``OUT/baseline-False``); ``replan`` and ``commit``: the filter's particles
 moved by re-plans every step, or by the committed plans of clusters (``filter.motion``; the
-baseline likewise, ``OUT/baseline-replan-2``, ``OUT/baseline-commit``); ``altitude-120``,
+baseline likewise, ``OUT/baseline-replan-2``, ``OUT/baseline-commit``); ``state-noise``: a
+committed cloud's process noise all in the particles' states rather than its lower levels in
+their starts (``filter.noise_space = "state"``; the baseline likewise, ``OUT/baseline-state``); ``altitude-120``,
 ``altitude-200``: the optimized policy with the UAV at 120 or 200 m instead of the mission's
 altitude (the baseline has no UAV).  Every variant runs the same trials (trial k seeded from
 ``SeedSequence(seed).spawn(trials)[k]``) beside the no-information baseline of those trials
@@ -76,12 +78,14 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     # every step re-plans (two halves a target), its noise levels as they were with it
     "replan": ("optimized", {"filter.motion": "replan", "filter.plan_clusters": 2, "filter.noise_scales": [0.03, 0.3]}),
     "commit": ("optimized", {"filter.motion": "commit"}),  # clusters' plans made once, flown open loop
+    "state-noise": ("optimized", {"filter.noise_space": "state"}),  # a committed cloud's noise all in the state
     "altitude-120": ("optimized", {"uav.altitude_m": 120.0}),  # the UAV 3x as high: fewer lines of sight blocked
     "altitude-200": ("optimized", {"uav.altitude_m": 200.0}),
 }
 # overrides the baseline takes too: they change the truths (truth, guidance) or what the filter
-# knows without a measurement (keep_out, motion, its clusters and their switching)
-SHARED = ("truth", "guidance.", "filter.keep_out", "filter.motion", "filter.plan_clusters", "filter.route_switch")
+# knows without a measurement (keep_out, motion, its clusters and their switching, where its noise goes)
+SHARED = ("truth", "guidance.", "filter.keep_out", "filter.motion", "filter.plan_clusters", "filter.route_switch",
+          "filter.noise_space")
 
 
 def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, workers: int, resume: bool) -> dict:
