@@ -372,7 +372,10 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-switch-either": "tracking-switch-either.json", "towns-switch-either-b": "tracking-switch-either-b.json",
     "towns-switch-either-grid": "tracking-switch-either-grid.json",
     "towns-switch-either-large": "tracking-switch-either-large.json",
-    "towns-switch-either-large20": "tracking-switch-either-large20.json"}
+    "towns-switch-either-large20": "tracking-switch-either-large20.json",
+    "towns-west": "tracking-west.json", "towns-north": "tracking-north.json",
+    "towns-seek-either-medium": "tracking-seek-either-medium.json",
+    "towns-seek-either-station": "tracking-seek-either-station.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
