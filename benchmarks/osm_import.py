@@ -31,7 +31,7 @@ CROPS = {  # name: (lon0, lat0, lon1, lat1)
     "medium": (24.94097, 60.16510, 24.95087, 60.17048),  # 550 x 599 m, Esplanadi
     "helsinki": (24.9380, 60.1690, 24.9510, 60.1760),  # 722 x 780 m, the shipped mission (missions/helsinki.toml)
     "large": (24.93520, 60.16474, 24.95322, 60.17730),  # 1000 x 1399 m, nearly the whole extract
-    # two crops no setting was chosen on, measured first with the code of 2026-11-29:
+    # two crops no setting was chosen on (docs/results/towns.md, two crops no setting was chosen on):
     "west": (24.9353, 60.1644, 24.9420, 60.1692),  # 372 x 535 m, Kamppi's closed blocks, 87 buildings
     "north": (24.9445, 60.1742, 24.9533, 60.1790),  # 488 x 535 m, north-east of the station, 60 buildings
 }

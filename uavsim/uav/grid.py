@@ -173,12 +173,17 @@ class GridOptimizer(OneUav):
         cands = candidates(self.position, self.m.uav)
         return cands, admissible(self.position, cands, self.m.world, self.m.uav)
 
-    def choose(self, belief, forecast: list | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+    def scored(self, belief) -> tuple[np.ndarray, np.ndarray, int]:
         """Eq. (13) on the predicted ``belief``: the candidates, their summed traces
-        (``inf``: not admissible) and the index of the best.  ``forecast`` (the targets'
-        plans, see :meth:`act`) is not needed one step ahead."""
+        (``inf``: not admissible) and the index of the best, ties unbroken."""
         cands, ok = self.moves()
         best, scores = decide(cands, ok, lambda c: belief.traces(c, self.sensor), self.weighted)
+        return cands, scores, best
+
+    def choose(self, belief, forecast: list | None = None) -> tuple[np.ndarray, np.ndarray, int]:
+        """:meth:`scored`, its ties broken by :meth:`untie`.  ``forecast`` (the targets'
+        plans, see :meth:`act`) is not needed one step ahead."""
+        cands, scores, best = self.scored(belief)
         return cands, scores, self.untie(belief, forecast, cands, scores, best)
 
     def untie(self, belief, forecast: list | None, cands: np.ndarray, scores: np.ndarray, best: int,
@@ -252,8 +257,7 @@ class Seek(GridOptimizer):
     name = "seek"
 
     def choose(self, belief, forecast: list | None = None) -> tuple[np.ndarray, np.ndarray, int]:
-        cands, ok = self.moves()
-        best, scores = decide(cands, ok, lambda c: belief.traces(c, self.sensor), self.weighted)
+        cands, scores, best = self.scored(belief)
         if not np.isfinite(scores[best]):
             return cands, scores, best
         flight = self.flight(belief, forecast)
