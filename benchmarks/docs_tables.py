@@ -375,7 +375,8 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-switch-either-large20": "tracking-switch-either-large20.json",
     "towns-west": "tracking-west.json", "towns-north": "tracking-north.json",
     "towns-seek-either-medium": "tracking-seek-either-medium.json",
-    "towns-seek-either-station": "tracking-seek-either-station.json"}
+    "towns-seek-either-station": "tracking-seek-either-station.json",
+    "towns-state-noise": "tracking-state-noise.json", "towns-state-noise-b": "tracking-state-noise-b.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
