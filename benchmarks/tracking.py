@@ -29,8 +29,8 @@ moved by re-plans every step, or by the committed plans of clusters (``filter.mo
 baseline likewise, ``OUT/baseline-replan-2``, ``OUT/baseline-commit``); ``state-noise``: a
 committed cloud's process noise all in the particles' states rather than its lower levels in
 their starts (``filter.noise_space = "state"``; the baseline likewise, ``OUT/baseline-state``);
-``altitude-120``, ``altitude-200``: the optimized policy with the UAV at 120 or 200 m instead of the mission's
-altitude (the baseline has no UAV).  Every variant runs the same trials (trial k seeded from
+``altitude-120``, ``altitude-200``: the optimized policy with the UAV at 120 or 200 m instead
+of the mission's altitude (the baseline has no UAV).  Every variant runs the same trials (trial k seeded from
 ``SeedSequence(seed).spawn(trials)[k]``) beside the no-information baseline of those trials
 (:func:`uavsim.campaign.with_baseline`), and reports what a tracking result needs: RMSE over
 the baseline's, overall and per target; lost target-trials (final error over 3
