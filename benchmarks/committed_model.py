@@ -75,7 +75,8 @@ def gaps(m, choices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             sim = Simulation(m, "baseline", guidance)
             sim.reset(seed)
             start = sim.truth.state.copy()  # (M, 6)
-            (means, _, scale, live), plans, gains, _ = sim.first_commit(m.filter.plan_clusters)
+            first = sim.first_commit(m.filter.plan_clusters)
+            (means, _, scale, live), plans, gains = first.reference, first.plans, first.gains
             label = join_clusters(start[:, None], means, scale, live)[:, 0]
             dist = (((start[:, None, HORIZONTAL] - means[..., HORIZONTAL]) / scale[:, None]) ** 2).sum(-1)
             order = np.argsort(np.where(live, dist, np.inf), axis=1)[:, :choices]  # (M, choices)

@@ -57,8 +57,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .belief import make_belief
-from .belief.particle import reference_clusters, restricted_draws
+from .belief import choice, make_belief
+from .belief.particle import nearest_clusters, reference_clusters, restricted_draws
 from .guidance import Guidance, Plan
 from .mission import Mission
 from .sensing import Scan
@@ -67,6 +67,7 @@ from .truth import Truth, clear_starts, prior_plan
 from .uav import make_policy
 from .uav.grid import every_move_ties
 from .world.routes import GoalField
+from .world.space import DepthGrid
 
 __all__ = ["Simulation", "StepInfo", "target_bearings"]  # the public interface (docs/api.md renders each)
 
@@ -104,6 +105,7 @@ class FirstCommit(NamedTuple):
     gains: np.ndarray  # (M, K, T, 3, 4) their gains
     events: list[str]  # what making them reported
     capped: int  # solves the wall-clock cap stopped while making them (counted at every reuse)
+    models: list[tuple]  # per target, its clusters' models and Eq. (7) costs (belief.choice)
 
 
 class Simulation:
@@ -307,9 +309,11 @@ class Simulation:
         k = self.m.filter.plan_clusters
         age = self.t - self._committed_at
         if self.t == 0:
-            reference, self.committed, self._gains, notes, _ = self.first_commit(k)
-            mass = self.belief.commit(reference[0].shape[1], reference, reference[0].shape[1] - k)[2]
-            events += notes
+            first = self.first_commit(k)
+            reference, self.committed, self._gains = first.reference, first.plans, first.gains
+            label = self._choose_routes(reference, first.models) if self.m.filter.route_candidates > 1 else None
+            mass = self.belief.commit(reference[0].shape[1], reference, reference[0].shape[1] - k, label)[2]
+            events += first.events
         elif age >= len(self.committed[0][0].controls):
             means, covs, mass = self.belief.commit(k)
             self.committed, self._gains = self._cluster_plans(means, covs, [None] * len(means), events)
@@ -345,8 +349,34 @@ class Simulation:
                 reference, plans, gains = self._probe_routes(cloud[:, :m.filter.route_probes], reference, plans, gains)
             for a in (*reference, gains):
                 a.flags.writeable = False  # shared by every trial that keeps this guidance
-            self.guidance.kept[key] = FirstCommit(reference, plans, gains, events, self.guidance.capped - capped)
+            self.guidance.kept[key] = FirstCommit(reference, plans, gains, events, self.guidance.capped - capped,
+                                                  self._route_models(reference[0], plans, gains))
         return self.guidance.kept[key]
+
+    def _route_models(self, means: np.ndarray, plans: list[list[Plan]], gains: np.ndarray) -> list[tuple]:
+        """Per target, its committed clusters' models from their ``means (M, K, 6)``
+        (:func:`.belief.choice.cluster_models`) and their Eq. (7) quadratics
+        (:func:`.belief.choice.eq7_quadratic`)."""
+        out = []
+        for j, row in enumerate(plans):
+            controls = np.array([p.controls for p in row])  # (K, T, 3)
+            states, sens = choice.cluster_models(means[j], controls, gains[j], self.m.dynamics)
+            out.append((states, sens, choice.eq7_quadratic(states, sens, controls, gains[j], self.m.goals[j],
+                                                           self.m.guidance.rho, self.m.guidance.link)))
+        return out
+
+    def _choose_routes(self, reference: tuple, models: list[tuple]) -> np.ndarray:
+        """``(M, N)`` the reference cluster each particle flies: the cheapest clear plan of its
+        ``route_candidates`` nearest (:mod:`.belief.choice`)."""
+        means, _, scale, live = reference
+        particles = self.belief.pf.particles
+        order = nearest_clusters(particles, means, scale, live, self.m.filter.route_candidates)
+        if "depth grid" not in self.guidance.kept:
+            g = self.guidance.geom
+            self.guidance.kept["depth grid"] = DepthGrid.build(g.polys, g.area_lo, g.area_hi)
+        depth = self.guidance.kept["depth grid"]
+        return np.stack([choice.cheapest(particles[j], order[j], means[j], states, sens, quad, depth)
+                         for j, (states, sens, quad) in enumerate(models)])
 
     def _probe_routes(self, probes: np.ndarray, reference: tuple, plans: list[list[Plan]], gains: np.ndarray
                       ) -> tuple[tuple, list[list[Plan]], np.ndarray]:

@@ -372,10 +372,20 @@ def join_clusters(particles: np.ndarray, means: np.ndarray, scale: np.ndarray, l
     :func:`reference_clusters` (``means (M, k, 6)``, ``scale (M, 4)``, ``live (M, k)``) whose
     mean is nearest in ``[x, y, vx, vy]`` scaled by ``scale``: the reference's k-means cells,
     where its means are its centres."""
+    return nearest_clusters(particles, means, scale, live, 1)[..., 0]
+
+
+def nearest_clusters(particles: np.ndarray, means: np.ndarray, scale: np.ndarray, live: np.ndarray, c: int
+                     ) -> np.ndarray:
+    """``(M, N, c)`` each particle's ``c`` nearest live clusters, nearest first (as
+    :func:`join_clusters` measures); where fewer than ``c`` are live, the nearest repeats."""
     z = particles[..., HORIZONTAL] / scale[:, None, :]
-    c = means[..., HORIZONTAL] / scale[:, None, :]  # (M, k, 4)
-    d = (c * c).sum(-1)[:, None, :] - 2.0 * z @ c.transpose(0, 2, 1)  # (M, N, k) + |z|^2
-    return np.argmin(np.where(live[:, None, :], d, np.inf), axis=2)
+    m = means[..., HORIZONTAL] / scale[:, None, :]  # (M, k, 4)
+    d = (m * m).sum(-1)[:, None, :] - 2.0 * z @ m.transpose(0, 2, 1)  # (M, N, k) + |z|^2
+    d = np.where(live[:, None, :], d, np.inf)
+    order = np.argsort(d, axis=2, kind="stable")[..., :c]
+    far = ~np.take_along_axis(live[:, None, :], order, axis=2)
+    return np.where(far, order[..., :1], order)
 
 
 def cluster_neighbours(means: np.ndarray, scale: np.ndarray, live: np.ndarray) -> np.ndarray:
@@ -562,7 +572,7 @@ class ParticleBelief:
                           + " (particles inside obstacles)")
         return events
 
-    def commit(self, k: int, reference: tuple | None = None, probed: int = 0
+    def commit(self, k: int, reference: tuple | None = None, probed: int = 0, label: np.ndarray | None = None
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Split each cloud in ``k`` clusters (:func:`clusters`), which the particles keep
         (resampling copies a particle's cluster and offset); each particle's offset is its
@@ -573,7 +583,8 @@ class ParticleBelief:
         means and covariances are returned, and the offsets are from those means.  ``probed``:
         the last clusters of ``reference`` were added for routes the others miss
         (:meth:`uavsim.sim.Simulation.first_commit`); their particles may switch routes, but
-        none switches to them (:meth:`_switch_routes`)."""
+        none switches to them (:meth:`_switch_routes`).  ``label (M, N)``: the reference
+        cluster each particle takes instead of its nearest (:mod:`.choice`)."""
         if reference is None:
             self.pf.label = clusters(self.pf.particles, self.pf.weights, k)
             parts, mass = cluster_weights(self.pf.weights, self.pf.label, k)
@@ -581,7 +592,7 @@ class ParticleBelief:
             scale, live = centred(self.pf.particles, self.pf.weights)[1], mass > 0
         else:
             means, covs, scale, live = reference
-            self.pf.label = join_clusters(self.pf.particles, means, scale, live)
+            self.pf.label = join_clusters(self.pf.particles, means, scale, live) if label is None else label
             mass = label_mass(self.pf.weights, self.pf.label, k)
         own = by_label(means, self.pf.label)  # (M, N, 6) each particle's cluster mean
         self.pf.offset = (self.pf.particles - own)[..., HORIZONTAL]
