@@ -29,11 +29,13 @@ import numpy as np
 from harness import markdown_table, parser, run
 from towns import mission_file
 
+from uavsim.belief.choice import cheapest
 from uavsim.belief.particle import join_clusters
 from uavsim.campaign import kept_guidance, load_trials, one_blas_thread, trial_seeds
 from uavsim.config import load_mission
 from uavsim.sim import Simulation, model_positions
 from uavsim.targets import HORIZONTAL
+from uavsim.world.space import DepthGrid
 
 GAPS = (10.0, 30.0)  # m: the classes a target-trial's gap is counted in
 
@@ -58,18 +60,21 @@ def measure(args) -> dict:
         late, tracked = second_half_nees(args, path), load_mission(path).filter.plan_clusters
         for k in map(int, args.clusters.split(",")):
             m = load_mission(path, {"trials": args.trials, "steps": args.steps, "filter.plan_clusters": k})
-            gap, near, best = gaps(m, args.choices)
-            rows.append(summary(world, k, gap, near, best, late if k == tracked else None))
-            print(markdown_table(HEAD, [cells(rows[-1])]).splitlines()[-1], flush=True)
-    print(markdown_table(HEAD, [cells(r) for r in rows]))
+            gap, near, best, cheap = gaps(m, args.choices)
+            rows.append(summary(world, k, gap, near, best, cheap, late if k == tracked else None))
+            print(markdown_table(head(rows), [cells(rows[-1])]).splitlines()[-1], flush=True)
+    print(markdown_table(head(rows), [cells(r) for r in rows]))
     return {"rows": rows}
 
 
-def gaps(m, choices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def gaps(m, choices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(trials, M)`` each truth's largest gap (m) over the mission's steps to its joined
-    cluster's model, to the best of its ``choices`` nearest clusters' and to the best cluster's."""
+    cluster's model, to the best of its ``choices`` nearest clusters', to the best cluster's
+    and to the cheapest clear cluster's of all (:func:`uavsim.belief.choice.cheapest`, what
+    ``route_candidates`` chooses)."""
     guidance, steps = kept_guidance(m), m.steps
-    joined, near, best = (np.zeros((m.trials, len(m.targets))) for _ in range(3))
+    depth = DepthGrid.build(guidance.geom.polys, guidance.geom.area_lo, guidance.geom.area_hi)
+    joined, near, best, cheap = (np.zeros((m.trials, len(m.targets))) for _ in range(4))
     with one_blas_thread():
         for i, seed in enumerate(trial_seeds(m.seed, m.trials)):
             sim = Simulation(m, "baseline", guidance)
@@ -86,7 +91,9 @@ def gaps(m, choices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
                 flown = model_positions(x0, means[j], controls, gains[j, :, :steps], m.dynamics)
                 gap = np.linalg.norm(flown - truth, axis=2).max(axis=1)  # (k,) the start under every cluster
                 joined[i, j], near[i, j], best[i, j] = gap[label[j]], gap[order[j]].min(), gap.min()
-    return joined, near, best
+                every = np.argsort(np.where(live[j], dist[j], np.inf))[None]  # (1, K) nearest first
+                cheap[i, j] = gap[cheapest(x0[None], every, means[j], *first.models[j], depth)[0]]
+    return joined, near, best, cheap
 
 
 def second_half_nees(args, path: Path) -> np.ndarray | None:
@@ -100,13 +107,14 @@ def second_half_nees(args, path: Path) -> np.ndarray | None:
     return np.stack([results[i].nees_pos[args.steps // 2:].mean(axis=0) for i in range(args.trials)])
 
 
-def summary(world: str, k: int, gap: np.ndarray, near: np.ndarray, best: np.ndarray, late: np.ndarray | None
-            ) -> dict:
+def summary(world: str, k: int, gap: np.ndarray, near: np.ndarray, best: np.ndarray, cheap: np.ndarray,
+            late: np.ndarray | None) -> dict:
     row = {"world": world, "clusters": k, "target_trials": int(gap.size),
            "gap_percentiles": dict(zip(("50", "75", "90"), np.percentile(gap, [50, 75, 90]).tolist())),
            "over": {f"{g:g}": int((gap > g).sum()) for g in GAPS},
            "near_over": {f"{g:g}": int((near > g).sum()) for g in GAPS},
-           "best_over": {f"{g:g}": int((best > g).sum()) for g in GAPS}}
+           "best_over": {f"{g:g}": int((best > g).sum()) for g in GAPS},
+           "cheapest_over": {f"{g:g}": int((cheap > g).sum()) for g in GAPS}}
     if late is not None:
         edges = (0.0, *GAPS, np.inf)
         row["nees_by_gap"] = [{"gap_m": [lo, hi], "n": int(s.sum()), "mean": float(late[s].mean()) if s.any() else None,
@@ -127,7 +135,16 @@ def cells(r: dict) -> list:
     nees = " / ".join(f"{c['mean']:.2f} ({c['n']})" if c["n"] else "- (0)" for c in r.get("nees_by_gap", []))
     return [r["world"], r["clusters"], r["target_trials"], f"{p['50']:.1f} / {p['75']:.1f} / {p['90']:.1f}",
             f"{r['over']['10']} / {r['over']['30']}", f"{r['near_over']['10']} / {r['near_over']['30']}",
-            f"{r['best_over']['10']} / {r['best_over']['30']}", nees or "-"]
+            f"{r['best_over']['10']} / {r['best_over']['30']}",
+            *([f"{r['cheapest_over']['10']} / {r['cheapest_over']['30']}"] if "cheapest_over" in r else []),
+            nees or "-"]
+
+
+def head(rows: list[dict]) -> list[str]:
+    """:data:`HEAD`, with the cheapest clear cluster's column where the rows have it (those
+    measured before it was added have not)."""
+    return HEAD[:-1] + ["cheapest clear cluster: gap > 10 m / > 30 m"] + HEAD[-1:] if all(
+        "cheapest_over" in r for r in rows) else HEAD
 
 
 if __name__ == "__main__":

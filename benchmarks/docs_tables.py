@@ -430,13 +430,13 @@ def tables_consistency(data: dict | None, name: str = "towns-consistency") -> di
             "of a world. " + provenance(data)}
 
 
-def tables_committed_model(data: dict | None) -> dict[str, str]:
+def tables_committed_model(data: dict | None, name: str = "towns-committed-model") -> dict[str, str]:
     """The committed filter's model against the planned truths (``committed_model.py``)."""
     if data is None:
         return {}
     s = data["settings"]
     rows = [committed_model.cells(r) for r in data["figures"]["rows"]]
-    return {"towns-committed-model": md(committed_model.HEAD, rows)
+    return {name: md(committed_model.head(data["figures"]["rows"]), rows)
             + f"\n\n{s['trials']} trials of {s['steps']} steps a world; --choices {s['choices']}. " + provenance(data)}
 
 
@@ -528,7 +528,8 @@ def pages() -> dict[Path, dict[str, str]]:
                 _load(DATA / "towns.json"), {name: _load(DATA / f) for name, f in TOWN_CAMPAIGNS.items()},
                 _load(DATA / "line-of-sight.json")), **tables_consistency(_load(DATA / "consistency.json")),
                 **tables_consistency(_load(DATA / "consistency-link.json"), "towns-consistency-link"),
-                **tables_committed_model(_load(DATA / "committed-model.json"))},
+                **tables_committed_model(_load(DATA / "committed-model.json")),
+                **tables_committed_model(_load(DATA / "committed-model-cheapest.json"), "towns-committed-cheapest")},
             DOCS / "results" / "lookahead.md": {**tables_lookahead(_load(DATA / "lookahead.json")),
                                                 **tables_lookahead(_load(DATA / "lookahead-clusters2.json"),
                                                                    "lookahead-clusters2")},
