@@ -80,6 +80,7 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "commit": ("optimized", {"filter.motion": "commit"}),  # clusters' plans made once, flown open loop
     "state-noise": ("optimized", {"filter.noise_space": "state"}),  # a committed cloud's noise all in the state
     "cheapest": ("optimized", {"filter.route_candidates": 64}),  # each particle flies its start's cheapest clear plan
+    "cheapest-4": ("optimized", {"filter.route_candidates": 4}),  # ... of its 4 nearest clusters' plans
     "altitude-120": ("optimized", {"uav.altitude_m": 120.0}),  # the UAV 3x as high: fewer lines of sight blocked
     "altitude-200": ("optimized", {"uav.altitude_m": 200.0}),
 }
