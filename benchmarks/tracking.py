@@ -79,15 +79,15 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "replan": ("optimized", {"filter.motion": "replan", "filter.plan_clusters": 2, "filter.noise_scales": [0.03, 0.3]}),
     "commit": ("optimized", {"filter.motion": "commit"}),  # clusters' plans made once, flown open loop
     "state-noise": ("optimized", {"filter.noise_space": "state"}),  # a committed cloud's noise all in the state
-    "cheapest": ("optimized", {"filter.route_candidates": 64}),  # each particle flies its start's cheapest clear plan
-    "cheapest-4": ("optimized", {"filter.route_candidates": 4}),  # ... of its 4 nearest clusters' plans
+    "cheapest": ("optimized", {"filter.route_choice": "cheapest"}),  # a particle flies its start's cheapest clear plan
+    "clear": ("optimized", {"filter.route_choice": "clear"}),  # ... where its nearest cluster's runs into an obstacle
     "altitude-120": ("optimized", {"uav.altitude_m": 120.0}),  # the UAV 3x as high: fewer lines of sight blocked
     "altitude-200": ("optimized", {"uav.altitude_m": 200.0}),
 }
 # overrides the baseline takes too: they change the truths (truth, guidance) or what the filter
 # knows without a measurement (keep_out, motion, its clusters, their choice and switching, where its noise goes)
 SHARED = ("truth", "guidance.", "filter.keep_out", "filter.motion", "filter.plan_clusters", "filter.route_switch",
-          "filter.noise_space", "filter.route_candidates")
+          "filter.noise_space", "filter.route_choice")
 
 
 def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, workers: int, resume: bool) -> dict:

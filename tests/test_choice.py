@@ -82,7 +82,9 @@ def test_cheapest_takes_the_clear_plan_and_else_the_nearest():
     Eq. (7) prefers it.  With nothing in the way it is chosen even when cluster 1 is the
     nearest; a box 10 m deep over cluster 0's path alone leaves cluster 1 though 0 is the
     nearest; a box over both paths leaves the nearest, whichever it is; a box that cluster
-    0's path dips into by less than the tolerance keeps cluster 0."""
+    0's path dips into by less than the tolerance keeps cluster 0.  With ``keep`` (the
+    "clear" choice) the nearest is kept while its path is clear, however much cheaper
+    another is, and a box over its path alone leaves the cheapest clear one."""
     t = 10
     means = np.zeros((2, 6))
     controls = np.zeros((2, t, 3))
@@ -94,8 +96,9 @@ def test_cheapest_takes_the_clear_plan_and_else_the_nearest():
     start = np.zeros((1, 6))
     lo, hi = np.array([-100.0, -100.0]), np.array([400.0, 400.0])
 
-    def choose(order, polygons):
-        return int(cheapest(start, np.array([order]), means, states, sens, quad, DepthGrid.build(polygons, lo, hi))[0])
+    def choose(order, polygons, keep=False):
+        grid = DepthGrid.build(polygons, lo, hi)
+        return int(cheapest(start, np.array([order]), means, states, sens, quad, grid, keep)[0])
 
     x = states[0, 5, 0]  # cluster 0's path at step 6; cluster 1's is then at y = x / sqrt(2) > 10 m
     assert states[1, 5, 1] > 12.0
@@ -106,6 +109,10 @@ def test_cheapest_takes_the_clear_plan_and_else_the_nearest():
     assert choose([0, 1], both) == 0 and choose([1, 0], both) == 1
     shallow = Polygons.boxes(np.array([[x - 5, -20.0]]), np.array([[x + 5, CLEAR_TOL_M - 1.0]]))
     assert choose([1, 0], shallow) == 0
+    assert choose([1, 0], Polygons.from_list([]), keep=True) == 1
+    y = states[1, 5, :2]  # cluster 1's path at step 6, cluster 0's then 12 m or more below it
+    on_1 = Polygons.boxes(np.array([y - 5]), np.array([y + 5]))
+    assert choose([1, 0], on_1, keep=True) == 0 and choose([0, 1], on_1, keep=True) == 0
 
 
 def test_nearest_clusters_order_and_dead_ones():
@@ -120,9 +127,9 @@ def test_nearest_clusters_order_and_dead_ones():
     assert nearest_clusters(p, means, np.ones((1, 4)), live, 3)[0, 0].tolist() == [1, 0, 1]
 
 
-def test_route_candidates_needs_committed_plans():
-    """More than one candidate chooses among committed plans: refused with re-planning."""
-    assert FilterConfig().route_candidates == 1
-    assert FilterConfig(route_candidates=8).route_candidates == 8
-    with pytest.raises(SettingError, match="route_candidates"):
-        FilterConfig(motion="replan", route_candidates=8)
+def test_route_choice_needs_committed_plans():
+    """A choice other than the nearest chooses among committed plans: refused with re-planning."""
+    assert FilterConfig().route_choice == "nearest"
+    assert FilterConfig(route_choice="clear").route_choice == "clear"
+    with pytest.raises(SettingError, match="route_choice"):
+        FilterConfig(motion="replan", route_choice="cheapest")

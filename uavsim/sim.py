@@ -311,7 +311,7 @@ class Simulation:
         if self.t == 0:
             first = self.first_commit(k)
             reference, self.committed, self._gains = first.reference, first.plans, first.gains
-            label = self._choose_routes(reference, first.models) if self.m.filter.route_candidates > 1 else None
+            label = None if self.m.filter.route_choice == "nearest" else self._choose_routes(reference, first.models)
             mass = self.belief.commit(reference[0].shape[1], reference, reference[0].shape[1] - k, label)[2]
             events += first.events
         elif age >= len(self.committed[0][0].controls):
@@ -367,15 +367,16 @@ class Simulation:
 
     def _choose_routes(self, reference: tuple, models: list[tuple]) -> np.ndarray:
         """``(M, N)`` the reference cluster each particle flies: the cheapest clear plan of its
-        ``route_candidates`` nearest (:mod:`.belief.choice`)."""
+        clusters as ``route_choice`` says (:mod:`.belief.choice`)."""
         means, _, scale, live = reference
         particles = self.belief.pf.particles
-        order = nearest_clusters(particles, means, scale, live, self.m.filter.route_candidates)
+        order = nearest_clusters(particles, means, scale, live, means.shape[1])
         if "depth grid" not in self.guidance.kept:
             g = self.guidance.geom
             self.guidance.kept["depth grid"] = DepthGrid.build(g.polys, g.area_lo, g.area_hi)
         depth = self.guidance.kept["depth grid"]
-        return np.stack([choice.cheapest(particles[j], order[j], means[j], states, sens, quad, depth)
+        keep = self.m.filter.route_choice == "clear"
+        return np.stack([choice.cheapest(particles[j], order[j], means[j], states, sens, quad, depth, keep)
                          for j, (states, sens, quad) in enumerate(models)])
 
     def _probe_routes(self, probes: np.ndarray, reference: tuple, plans: list[list[Plan]], gains: np.ndarray

@@ -29,6 +29,7 @@ from .particle import ParticleBelief
 KINDS = ("particle", *FILTERS)
 MOTIONS = ("replan", "commit")  # FilterConfig.motion
 NOISE_SPACES = ("state", "start", "split")  # FilterConfig.noise_space
+ROUTE_CHOICES = ("nearest", "cheapest", "clear")  # FilterConfig.route_choice
 # process-noise levels by motion (measured on the towns: docs/results/towns.md, committed plans): a
 # particle flying a committed plan with its gains rarely misses the truth's force; the lowest level fits those
 REPLAN_SCALES, COMMIT_SCALES = (0.03, 0.3), (0.003, 0.03, 0.3)
@@ -62,8 +63,8 @@ class FilterConfig:
     a committed particle's chance per step to take a neighbouring cluster's plan
     (:meth:`.particle.ParticleBelief.predict_committed`); ``route_probes``: prior starts
     planned at the first step to find routes the clusters' plans miss
-    (:meth:`uavsim.sim.Simulation.first_commit`); ``route_candidates``: the clusters a
-    particle's start chooses its plan among (:mod:`.choice`).
+    (:meth:`uavsim.sim.Simulation.first_commit`); ``route_choice``: how a particle's start
+    chooses its cluster's plan (:mod:`.choice`).
     ``keep_out``: the targets keep out of the obstacles
     (:meth:`.particle.ParticleBelief.keep_out`).  The paper's missions set ``motion =
     "replan"``, ``plan_clusters = 1``, ``loss_nats = 0``, ``noise_scales = [1.0]`` and
@@ -116,10 +117,11 @@ class FilterConfig:
                                 doc="motion = commit: starts drawn from the prior and planned at the first step; one "
                                     "whose plan no cluster's plan and gains reproduce (a route none of them takes) "
                                     "becomes a cluster of its own (uavsim.sim.Simulation.first_commit)")
-    route_candidates: int = setting("route_candidates", 1, kind="integer", lo=1, hi=64,
-                                    doc="motion = commit: at the first step a particle flies, of its start's "
-                                        "route_candidates nearest clusters, the plan Eq. (7) finds cheapest from it "
-                                        "among those that keep clear (uavsim.belief.choice); 1: its nearest")
+    route_choice: str = setting("route_choice", "nearest", choices=ROUTE_CHOICES,
+                                doc="motion = commit: the cluster whose plan a particle flies from the first step: "
+                                    "nearest, its start's nearest; cheapest, the one whose model from its start "
+                                    "Eq. (7) finds cheapest among those that keep clear; clear, its nearest unless "
+                                    "that model runs into an obstacle, then the cheapest (uavsim.belief.choice)")
     keep_out: bool = setting("keep_out", kind="boolean", derived="true for kind = particle, else false",
                              doc="the filter knows the targets keep out of the obstacles, as the true ones do: its "
                                  "prior is N(mu_0, Sigma_0) restricted to the starts a true target may take, and a "
@@ -146,7 +148,7 @@ class FilterConfig:
         self._commit_only("noise_space", "split", "state", "moves the particles' starts along committed plans")
         self._commit_only("route_switch", ROUTE_SWITCH, 0.0, "switches particles between committed plans")
         self._commit_only("route_probes", ROUTE_PROBES, 0, "adds clusters to committed plans")
-        self._commit_only("route_candidates", 1, 1, "chooses among committed plans")
+        self._commit_only("route_choice", "nearest", "nearest", "chooses among committed plans")
         if self.motion == "commit" and self.kind != "particle":
             raise SettingError("motion", f"needs particles to cluster (kind = \"particle\"), got kind = "
                                          f"\"{self.kind}\"")

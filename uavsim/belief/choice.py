@@ -10,22 +10,27 @@ the truth's plan within 20 steps (docs/results/towns.md, "Where the committed mo
 the truth").
 
 Every cluster's model flown from a start is a plan from that start, and P1's plan is the
-cheapest in Eq. (7) of the plans that keep clear [Papaioannou2023, Eq. (7)-(8)].  So
-(``[filter] route_choice = "cheapest"``) a particle takes, among its
-``route_candidates`` nearest clusters, the one whose model from its start costs least in
-Eq. (7),
+cheapest in Eq. (7) of the plans that keep clear [Papaioannou2023, Eq. (7)-(8)].  So with
+``[filter] route_choice = "cheapest"`` a particle takes the cluster whose model from its
+start costs least in Eq. (7),
 
     || p_T(d) - G_o ||^2 + rho sum_{t=1}^{T-1} || u_t(d) - u_{t-1}(d) ||^2   (+ rho || u_0(d) ||^2 with the link term),
 
 among those whose positions at steps 2..T stay within :data:`CLEAR_TOL_M` of the clear
-ground (the inflated obstacles' :class:`.world.space.DepthGrid` and the area), and the
-nearest cluster where none does.  ``p_t(d) = p_t + S_t d`` and ``u_t(d) = u_t + K_t d`` are
-affine in the offset ``d``, so the cost is a quadratic in ``d`` per cluster, formed once.
-Speed and force limits are not checked: an affine model that breaks them by a little is
-still the nearest thing to the plan with that route (measured: checking them changed no
-choice on osm-medium), and neither is a hard terminal region.  The tolerance allows for
-the models' small excursions where the plan's active set changes within the offset (a
-model exactly on an inflated face dips into it).
+ground (the inflated obstacles' :class:`.world.space.DepthGrid` and the area), and its
+nearest where none does; with ``"clear"`` it keeps its nearest cluster unless that model
+runs into an obstacle, and only then takes the cheapest clear one.  ``p_t(d) = p_t + S_t
+d`` and ``u_t(d) = u_t + K_t d`` are affine in the offset ``d``, so the cost is a
+quadratic in ``d`` per cluster, formed once.  Speed and force limits are not checked
+(an affine model that breaks them by a little is still the nearest thing to a plan with
+that route), nor is a hard terminal region.  The tolerance allows for the models' small
+excursions where the plan's active set changes within the offset (a model exactly on an
+inflated face dips into it).
+
+Measured (docs/results/towns.md, "A start's own route"): on the truths' starts the
+cheapest clear model strays from the truth's plan far less often than the nearest
+cluster's, but "cheapest" moves most particles to a farther cluster whose costs differ
+from their nearest's by little, and tracking is no better; the default stays "nearest".
 
 Vectorised over particles and candidates; the one Python loop runs over the plan's steps.
 """
@@ -72,12 +77,13 @@ def eq7_quadratic(states: np.ndarray, sens: np.ndarray, controls: np.ndarray, ga
 
 
 def cheapest(starts: np.ndarray, order: np.ndarray, means: np.ndarray, states: np.ndarray, sens: np.ndarray,
-             quad: tuple[np.ndarray, np.ndarray, np.ndarray], depth) -> np.ndarray:
+             quad: tuple[np.ndarray, np.ndarray, np.ndarray], depth, keep: bool = False) -> np.ndarray:
     """``(N,)`` the cluster each of one target's ``starts (N, 6)`` flies: of its candidates
     ``order (N, C)`` (nearest first), the cheapest in Eq. (7) (``quad``, :func:`eq7_quadratic`)
     whose model (``states``, ``sens``: :func:`cluster_models` of the clusters' ``means (K,
     6)``) keeps within :data:`CLEAR_TOL_M` of the clear ground (``depth(points (..., 2))``,
-    a :class:`.world.space.DepthGrid`), else its nearest.
+    a :class:`.world.space.DepthGrid`), else its nearest.  ``keep``: its nearest is tried
+    first, whatever it costs (``route_choice = "clear"``).
 
     The candidates are tried cheapest first, all particles at once: a round tests each
     undecided particle's next cheapest model at steps 2..T (step 1 is ``p + v dt``, which no
@@ -89,12 +95,15 @@ def cheapest(starts: np.ndarray, order: np.ndarray, means: np.ndarray, states: n
     allowed = np.zeros(cost.shape, bool)
     np.put_along_axis(allowed, order, True, axis=1)
     cost = np.where(allowed, cost, np.inf)
+    if keep:
+        np.put_along_axis(cost, order[:, :1], -np.inf, axis=1)
     ranked = np.argsort(cost, axis=1, kind="stable")[:, :order.shape[1]]
     pos, to_pos = np.ascontiguousarray(states[:, 1:, :2]), np.ascontiguousarray(sens[:, 1:, :2])
     chosen, pending = order[:, 0].copy(), np.arange(n)
     for r in range(ranked.shape[1]):
         k = ranked[pending, r]
-        pending, k = pending[np.isfinite(cost[pending, k])], k[np.isfinite(cost[pending, k])]
+        tried = cost[pending, k] < np.inf
+        pending, k = pending[tried], k[tried]
         if not len(pending):
             break
         p = pos[k] + np.einsum("ntij,nj->nti", to_pos[k], d[pending, k])
