@@ -82,6 +82,7 @@ def gaps(m, choices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarra
             start = sim.truth.state.copy()  # (M, 6)
             first = sim.first_commit(m.filter.plan_clusters)
             (means, _, scale, live), plans, gains = first.reference, first.plans, first.gains
+            models = sim.route_models(first)
             label = join_clusters(start[:, None], means, scale, live)[:, 0]
             dist = (((start[:, None, HORIZONTAL] - means[..., HORIZONTAL]) / scale[:, None]) ** 2).sum(-1)
             order = np.argsort(np.where(live, dist, np.inf), axis=1)[:, :choices]  # (M, choices)
@@ -92,7 +93,7 @@ def gaps(m, choices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarra
                 gap = np.linalg.norm(flown - truth, axis=2).max(axis=1)  # (k,) the start under every cluster
                 joined[i, j], near[i, j], best[i, j] = gap[label[j]], gap[order[j]].min(), gap.min()
                 every = np.argsort(np.where(live[j], dist[j], np.inf))[None]  # (1, K) nearest first
-                cheap[i, j] = gap[cheapest(x0[None], every, means[j], *first.models[j], depth)[0]]
+                cheap[i, j] = gap[cheapest(x0[None], every, means[j], *models[j], depth)[0]]
     return joined, near, best, cheap
 
 

@@ -105,7 +105,6 @@ class FirstCommit(NamedTuple):
     gains: np.ndarray  # (M, K, T, 3, 4) their gains
     events: list[str]  # what making them reported
     capped: int  # solves the wall-clock cap stopped while making them (counted at every reuse)
-    models: list[tuple]  # per target, its clusters' models and Eq. (7) costs (belief.choice)
 
 
 class Simulation:
@@ -311,7 +310,7 @@ class Simulation:
         if self.t == 0:
             first = self.first_commit(k)
             reference, self.committed, self._gains = first.reference, first.plans, first.gains
-            label = None if self.m.filter.route_choice == "nearest" else self._choose_routes(reference, first.models)
+            label = None if self.m.filter.route_choice == "nearest" else self._choose_routes(first)
             mass = self.belief.commit(reference[0].shape[1], reference, reference[0].shape[1] - k, label)[2]
             events += first.events
         elif age >= len(self.committed[0][0].controls):
@@ -349,26 +348,25 @@ class Simulation:
                 reference, plans, gains = self._probe_routes(cloud[:, :m.filter.route_probes], reference, plans, gains)
             for a in (*reference, gains):
                 a.flags.writeable = False  # shared by every trial that keeps this guidance
-            self.guidance.kept[key] = FirstCommit(reference, plans, gains, events, self.guidance.capped - capped,
-                                                  self._route_models(reference[0], plans, gains))
+            self.guidance.kept[key] = FirstCommit(reference, plans, gains, events, self.guidance.capped - capped)
         return self.guidance.kept[key]
 
-    def _route_models(self, means: np.ndarray, plans: list[list[Plan]], gains: np.ndarray) -> list[tuple]:
-        """Per target, its committed clusters' models from their ``means (M, K, 6)``
-        (:func:`.belief.choice.cluster_models`) and their Eq. (7) quadratics
-        (:func:`.belief.choice.eq7_quadratic`)."""
+    def route_models(self, first: FirstCommit) -> list[tuple]:
+        """Per target, its first committed clusters' models ``(states, sens)``
+        (:func:`.belief.choice.cluster_models`) and their Eq. (7) quadratic
+        (:func:`.belief.choice.eq7_quadratic`): ``[(states, sens, quad), ...]``."""
         out = []
-        for j, row in enumerate(plans):
-            controls = np.array([p.controls for p in row])  # (K, T, 3)
-            states, sens = choice.cluster_models(means[j], controls, gains[j], self.m.dynamics)
-            out.append((states, sens, choice.eq7_quadratic(states, sens, controls, gains[j], self.m.goals[j],
+        for j, row in enumerate(first.plans):
+            controls = np.array([p.controls for p in row])  # (K, T, 3): every first plan spans the horizon
+            states, sens = choice.cluster_models(first.reference[0][j], controls, first.gains[j], self.m.dynamics)
+            out.append((states, sens, choice.eq7_quadratic(states, sens, controls, first.gains[j], self.m.goals[j],
                                                            self.m.guidance.rho, self.m.guidance.link)))
         return out
 
-    def _choose_routes(self, reference: tuple, models: list[tuple]) -> np.ndarray:
+    def _choose_routes(self, first: FirstCommit) -> np.ndarray:
         """``(M, N)`` the reference cluster each particle flies: the cheapest clear plan of its
         clusters as ``route_choice`` says (:mod:`.belief.choice`)."""
-        means, _, scale, live = reference
+        means, _, scale, live = first.reference
         particles = self.belief.pf.particles
         order = nearest_clusters(particles, means, scale, live, means.shape[1])
         if "depth grid" not in self.guidance.kept:
@@ -377,7 +375,7 @@ class Simulation:
         depth = self.guidance.kept["depth grid"]
         keep = self.m.filter.route_choice == "clear"
         return np.stack([choice.cheapest(particles[j], order[j], means[j], states, sens, quad, depth, keep)
-                         for j, (states, sens, quad) in enumerate(models)])
+                         for j, (states, sens, quad) in enumerate(self.route_models(first))])
 
     def _probe_routes(self, probes: np.ndarray, reference: tuple, plans: list[list[Plan]], gains: np.ndarray
                       ) -> tuple[tuple, list[list[Plan]], np.ndarray]:
