@@ -376,7 +376,8 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-west": "tracking-west.json", "towns-north": "tracking-north.json",
     "towns-seek-either-medium": "tracking-seek-either-medium.json",
     "towns-seek-either-station": "tracking-seek-either-station.json",
-    "towns-state-noise": "tracking-state-noise.json", "towns-state-noise-b": "tracking-state-noise-b.json"}
+    "towns-state-noise": "tracking-state-noise.json", "towns-state-noise-b": "tracking-state-noise-b.json",
+    "towns-route-cheapest": "tracking-route-cheapest.json", "towns-route-clear": "tracking-route-clear.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
