@@ -70,8 +70,8 @@ def measure(args) -> dict:
 def gaps(m, choices: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """``(trials, M)`` each truth's largest gap (m) over the mission's steps to its joined
     cluster's model, to the best of its ``choices`` nearest clusters', to the best cluster's
-    and to the cheapest clear cluster's of all (:func:`uavsim.belief.choice.cheapest`, what
-    ``route_choice = "cheapest"`` chooses)."""
+    and to the cheapest clear cluster's of all (:func:`uavsim.belief.choice.cheapest`: what
+    ``route_choice = "cheapest"`` chooses where every cluster holds particles)."""
     guidance, steps = kept_guidance(m), m.steps
     depth = DepthGrid.build(guidance.geom.polys, guidance.geom.area_lo, guidance.geom.area_hi)
     joined, near, best, cheap = (np.zeros((m.trials, len(m.targets))) for _ in range(4))
