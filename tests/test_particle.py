@@ -604,6 +604,21 @@ def test_probe_shares_raise_each_targets_state_level_to_its_measured_miss():
         b.pf.predict(np.random.default_rng(6), np.eye(6), np.zeros((6, 3)), np.eye(6), np.zeros((2, 3)))
 
 
+def test_a_reseeded_tracks_fresh_particles_draw_levels_at_its_own_chances():
+    """A lost track re-seeded (``reseed``) gives its fresh particles noise levels drawn at
+    its own target's chances: after ``probe_shares`` with misses 0 and 0.6, target 2's
+    16 000 fresh particles carry the state level at 0.6 (binomial s.e. 0.004, tolerance
+    0.02), and the other levels at 0.4 x 5/9 and 0.4 x 4/9 (by hand)."""
+    n = 20_000
+    b = ParticleBelief(np.random.default_rng(3), np.zeros((2, 6)), np.broadcast_to(np.eye(6), (2, 6, 6)), n, 0.5,
+                       0.0, ("T1", "T2"), noise_scales=np.array([0.003, 0.03, 0.3]),
+                       noise_shares=np.array([0.5, 0.4, 0.1]))
+    b.probe_shares(np.array([0.0, 0.6]))
+    b.reseed(np.array([1]), np.zeros((1, 16_000, 6)))
+    fresh = np.bincount(b.pf.mode[1, n - 16_000:], minlength=3) / 16_000
+    np.testing.assert_allclose(fresh, [0.4 * 5 / 9, 0.4 * 4 / 9, 0.6], atol=0.02)
+
+
 def _committed_belief(noise_space: str, scales: np.ndarray, n: int = 20_000) -> ParticleBelief:
     """One target's cloud, committed in one cluster, with noise levels ``scales``."""
     cov = np.diag([400.0, 100.0, 1e-10, 4.0, 9.0, 1e-10])

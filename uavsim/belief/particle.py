@@ -248,7 +248,12 @@ class ParticleFilter:
 
 def _rows(shape: tuple[int, int]) -> np.ndarray:
     """``(M, N)`` each entry's row index."""
-    return np.broadcast_to(np.arange(shape[0])[:, None], shape)
+    return _rows_of(np.arange(shape[0]), shape[1])
+
+
+def _rows_of(rows: np.ndarray, n: int) -> np.ndarray:
+    """``(len(rows), n)``: row r's entries all ``rows[r]`` (the target each draw is for)."""
+    return np.broadcast_to(np.asarray(rows)[:, None], (len(rows), n))
 
 
 def within_spread(positions: np.ndarray, weights: np.ndarray, rows: np.ndarray, starts: np.ndarray,
@@ -796,7 +801,7 @@ class ParticleBelief:
                                                np.zeros((*fresh.shape[:2], 4))], axis=1)
         if self.pf.mode is not None:
             self.pf.mode[rows] = np.concatenate([np.take_along_axis(self.pf.mode[rows], idx, axis=1),
-                                              self.pf.draw_levels(self.rng, fresh.shape[:2])], axis=1)
+                                              self.pf.draw_levels(self.rng, _rows_of(rows, fresh.shape[1]))], axis=1)
         logw = self.pf.logw.copy()
         logw[rows] = -np.log(n)
         self.pf.logw = logw
