@@ -124,9 +124,6 @@ BAD_MISSIONS = [
      'committed plans (motion = "commit"), got motion = "replan"'),
     (sub("noise_scales = [1.0]", "noise_scales = [1.0]\nroute_probes = 32"), "filter.route_probes",
      'committed plans (motion = "commit"), got motion = "replan"'),
-    (sub("noise_scales = [1.0]", "noise_scales = [1.0]\nprobe_shares = true"), "filter.probe_shares",
-     'needs committed plans with route probes and two or more noise levels (motion = "commit", route_probes > 0, '
-     'noise_scales of 2+ values), got motion = "replan", route_probes = 0, 1 noise level(s)'),
     (sub("clutter_rate = 1.0", "clutter_rate = 0.0").replace("particles = 5000", 'kind = "plkf"')
      .replace('motion = "replan"', 'motion = "commit"')
      .replace("clutter_rate = 0.5", "clutter_rate = 0.0"), "filter.motion", "needs particles to cluster"),

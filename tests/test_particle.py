@@ -584,41 +584,6 @@ def test_noise_shares_set_each_levels_chance():
     np.testing.assert_array_equal(*modes)
 
 
-def test_probe_shares_raise_each_targets_state_level_to_its_measured_miss():
-    """``probe_shares``: with the committed filter's levels (0.003, 0.03, 0.3) at chances
-    (0.5, 0.4, 0.1) and route-probe misses 0.05 and 0.3, target 1 keeps (0.5, 0.4, 0.1) (its
-    miss is below the highest level's 0.1) and target 2 gets 0.3 at the highest, the rest in
-    their proportion 5 : 4, (0.7 x 5/9, 0.7 x 4/9, 0.3) = (0.3889, 0.3111, 0.3) (by hand).
-    20 000 particles a target then carry each level at its target's chance (binomial s.e. at
-    most 0.0035, tolerance 0.02), at the start and after every particle redraws its level."""
-    n = 20_000
-    b = ParticleBelief(np.random.default_rng(3), np.zeros((2, 6)), np.broadcast_to(np.eye(6), (2, 6, 6)), n, 0.5,
-                       0.0, ("T1", "T2"), noise_scales=np.array([0.003, 0.03, 0.3]), scale_switch=1.0,
-                       noise_shares=np.array([0.5, 0.4, 0.1]))
-    b.probe_shares(np.array([0.05, 0.3]))
-    want = np.array([[0.5, 0.4, 0.1], [0.7 * 5 / 9, 0.7 * 4 / 9, 0.3]])
-    np.testing.assert_allclose(b.pf.cum, np.cumsum(want, axis=1)[:, :2], atol=1e-12)
-    for _ in range(2):  # drawn anew, then each particle redraws (scale_switch = 1)
-        got = np.array([np.bincount(row, minlength=3) / n for row in b.pf.mode])
-        np.testing.assert_allclose(got, want, atol=0.02)
-        b.pf.predict(np.random.default_rng(6), np.eye(6), np.zeros((6, 3)), np.eye(6), np.zeros((2, 3)))
-
-
-def test_a_reseeded_tracks_fresh_particles_draw_levels_at_its_own_chances():
-    """A lost track re-seeded (``reseed``) gives its fresh particles noise levels drawn at
-    its own target's chances: after ``probe_shares`` with misses 0 and 0.6, target 2's
-    16 000 fresh particles carry the state level at 0.6 (binomial s.e. 0.004, tolerance
-    0.02), and the other levels at 0.4 x 5/9 and 0.4 x 4/9 (by hand)."""
-    n = 20_000
-    b = ParticleBelief(np.random.default_rng(3), np.zeros((2, 6)), np.broadcast_to(np.eye(6), (2, 6, 6)), n, 0.5,
-                       0.0, ("T1", "T2"), noise_scales=np.array([0.003, 0.03, 0.3]),
-                       noise_shares=np.array([0.5, 0.4, 0.1]))
-    b.probe_shares(np.array([0.0, 0.6]))
-    b.reseed(np.array([1]), np.zeros((1, 16_000, 6)))
-    fresh = np.bincount(b.pf.mode[1, n - 16_000:], minlength=3) / 16_000
-    np.testing.assert_allclose(fresh, [0.4 * 5 / 9, 0.4 * 4 / 9, 0.6], atol=0.02)
-
-
 def _committed_belief(noise_space: str, scales: np.ndarray, n: int = 20_000) -> ParticleBelief:
     """One target's cloud, committed in one cluster, with noise levels ``scales``."""
     cov = np.diag([400.0, 100.0, 1e-10, 4.0, 9.0, 1e-10])

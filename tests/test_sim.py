@@ -2,7 +2,6 @@
 
 import dataclasses
 import json
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -444,29 +443,6 @@ def test_route_probes_add_a_cluster_for_a_route_none_takes():
     assert added[0].tolist() == [0, 0, 0, 0] and added[32][0] == 1
     assert (np.array(miss[32])[west] < 15.0).all()
     assert (np.array(miss[32])[~west] <= np.array(miss[0])[~west] + 1e-9).all()
-
-
-def test_the_route_probes_miss_share_counts_gaps_past_the_prior_spread_within_the_mission():
-    """``Simulation._missed`` by hand: two clusters at x = 0 and x = 100 m whose plans and
-    gains are zero, so a start at rest stays where it is under its cluster's model; the
-    clusters' scale is 1 everywhere, so the route gap is 1 m.  Of three probes starting at
-    rest, the first's plan stays on its start (gap 0), the second's leaves it by 50 m at
-    step 4 only, the third's by 20 m at step 2.  With a 3-step mission the share is 1/3
-    (the second's gap comes after the mission's end); with 4 steps, 2/3."""
-    dyn = load_mission(PAPER).dynamics
-    means = np.zeros((1, 2, 6))
-    means[0, 1, 0] = 100.0
-    reference = (means, None, np.ones((1, 4)), np.ones((1, 2), bool))
-    plans = [[SimpleNamespace(controls=np.zeros((4, 3))) for _ in range(2)]]
-    starts = np.zeros((3, 6))
-    starts[1:, 0] = [100.0, 0.0]
-    positions = np.repeat(starts[:, None, :2], 4, axis=1)
-    positions[1, 3, 1] += 50.0
-    positions[2, 1, 1] += 20.0
-    for steps, share in ((3, 1 / 3), (4, 2 / 3)):
-        fake = SimpleNamespace(m=SimpleNamespace(steps=steps, dynamics=dyn))
-        got = Simulation._missed(fake, [(starts, positions)], reference, plans, np.zeros((1, 2, 4, 3, 4)))
-        np.testing.assert_allclose(got, [share])
 
 
 def test_route_probes_are_planned_as_the_truth_would_be(monkeypatch):

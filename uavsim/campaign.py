@@ -366,8 +366,6 @@ def fingerprint(mission: Mission, planner: str = "") -> str:
         del data["filter"]["route_probes"]
     if data["filter"]["route_choice"] == "nearest":  # the nearest cluster: as before the setting existed
         del data["filter"]["route_choice"]
-    if not data["filter"]["probe_shares"]:  # noise levels at the mission's chances: as before the setting existed
-        del data["filter"]["probe_shares"]
     if not data["filter"]["keep_out"]:  # particles that may cross obstacles: as before the setting existed
         del data["filter"]["keep_out"]
     if data["filter"]["motion"] == "replan":  # re-planned every step: as before the setting existed

@@ -58,7 +58,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .belief import choice, make_belief
-from .belief.particle import join_clusters, nearest_clusters, reference_clusters, restricted_draws
+from .belief.particle import nearest_clusters, reference_clusters, restricted_draws
 from .guidance import Guidance, Plan
 from .mission import Mission
 from .sensing import Scan
@@ -105,7 +105,6 @@ class FirstCommit(NamedTuple):
     gains: np.ndarray  # (M, K, T, 3, 4) their gains
     events: list[str]  # what making them reported
     capped: int  # solves the wall-clock cap stopped while making them (counted at every reuse)
-    missed: np.ndarray | None = None  # (M,) share of the route probes whose own cluster's model misses their route
 
 
 class Simulation:
@@ -313,8 +312,6 @@ class Simulation:
             reference, self.committed, self._gains = first.reference, first.plans, first.gains
             label = None if self.m.filter.route_choice == "nearest" else self._choose_routes(first)
             mass = self.belief.commit(reference[0].shape[1], reference, reference[0].shape[1] - k, label)[2]
-            if self.m.filter.probe_shares:
-                self.belief.probe_shares(first.missed)
             events += first.events
         elif age >= len(self.committed[0][0].controls):
             means, covs, mass = self.belief.commit(k)
@@ -335,8 +332,8 @@ class Simulation:
         whose plan no cluster's model follows becomes a cluster (:meth:`_probe_routes`)."""
         m = self.m
         means0, covs0 = np.array([t.mean0 for t in m.targets]), np.array([t.cov0 for t in m.targets])
-        key = ("first commit", k, m.filter.particles, m.filter.keep_out, m.filter.route_probes, m.steps,
-               means0.tobytes(), covs0.tobytes(), np.array(m.goals).tobytes())
+        key = ("first commit", k, m.filter.particles, m.filter.keep_out, m.filter.route_probes, means0.tobytes(),
+               covs0.tobytes(), np.array(m.goals).tobytes())
         if key in self.guidance.kept:  # its capped solves (Plan.capped) count in every trial that reuses it
             self.guidance.capped += self.guidance.kept[key].capped
         else:
@@ -347,15 +344,11 @@ class Simulation:
             events: list[str] = []
             plans, gains = self._cluster_plans(*reference[:2], [self._prior_plan(j) for j in range(len(m.targets))],
                                                events)
-            missed = None
             if m.filter.route_probes:
-                reference, plans, gains, probed = self._probe_routes(cloud[:, :m.filter.route_probes], reference,
-                                                                     plans, gains)
-                missed = self._missed(probed, reference, plans, gains)
+                reference, plans, gains = self._probe_routes(cloud[:, :m.filter.route_probes], reference, plans, gains)
             for a in (*reference, gains):
                 a.flags.writeable = False  # shared by every trial that keeps this guidance
-            self.guidance.kept[key] = FirstCommit(reference, plans, gains, events, self.guidance.capped - capped,
-                                                  missed)
+            self.guidance.kept[key] = FirstCommit(reference, plans, gains, events, self.guidance.capped - capped)
         return self.guidance.kept[key]
 
     def route_models(self, first: FirstCommit) -> list[tuple]:
@@ -385,7 +378,7 @@ class Simulation:
                          for j, (states, sens, quad) in enumerate(self.route_models(first))])
 
     def _probe_routes(self, probes: np.ndarray, reference: tuple, plans: list[list[Plan]], gains: np.ndarray
-                      ) -> tuple[tuple, list[list[Plan]], np.ndarray, list[tuple]]:
+                      ) -> tuple[tuple, list[list[Plan]], np.ndarray]:
         """The first step's clusters with a cluster added for each route they miss.  Each of
         ``probes (M, P, 6)`` (starts drawn as the reference cloud's) is planned as a truth
         from it would be; where its plan's positions leave every cluster's model (the
@@ -394,56 +387,28 @@ class Simulation:
         mean, its plan, the gains there, the nearest cluster's covariance.  Probes a cluster
         added before fits are skipped; at most :data:`MAX_ROUTE_CLUSTERS` a target.  Every
         target's clusters are padded with empty ones (not live, never joined) to the most
-        any target has.  ``reference``, ``plans``, ``gains``: as :meth:`first_commit` makes them.
-        Also returns, per target, the probes planned, ``(starts (P', 6), positions (P', T, 2))``
-        (for :meth:`_missed`)."""
+        any target has.  ``reference``, ``plans``, ``gains``: as :meth:`first_commit` makes them."""
         means, covs, scale, live = reference
-        both = [self._route_clusters(j, starts, means[j][live[j]], covs[j][live[j]],
-                                     [p for p, on in zip(plans[j], live[j]) if on], gains[j][live[j]], scale[j])
-                for j, starts in enumerate(probes)]
-        added, probed = [b[0] for b in both], [b[1] for b in both]
+        added = [self._route_clusters(j, starts, means[j][live[j]], covs[j][live[j]],
+                                      [p for p, on in zip(plans[j], live[j]) if on], gains[j][live[j]], scale[j])
+                 for j, starts in enumerate(probes)]
         extra = max(map(len, added))
         if not extra:
-            return reference, plans, gains, probed
+            return reference, plans, gains
         blank = [(means[j, 0], covs[j, 0], plans[j][0], np.zeros_like(gains[j, 0])) for j in range(len(means))]
         cols = [list(zip(*(row + [blank[j]] * (extra - len(row))))) for j, row in enumerate(added)]  # M x 4 lists
         more = [np.array([c[i] for c in cols]) for i in (0, 1, 3)]  # (M, extra, ...) means, covs, gains
         live = np.concatenate([live, np.arange(extra) < np.array([len(row) for row in added])[:, None]], axis=1)
         return ((np.concatenate([means, more[0]], axis=1), np.concatenate([covs, more[1]], axis=1), scale, live),
-                [p + list(c[2]) for p, c in zip(plans, cols)], np.concatenate([gains, more[2]], axis=1), probed)
-
-    def _missed(self, probed: list[tuple], reference: tuple, plans: list[list[Plan]], gains: np.ndarray
-                ) -> np.ndarray:
-        """``(M,)`` per target, the share of its planned route probes (``probed``, from
-        :meth:`_probe_routes`) whose own plan leaves the model of the cluster the probe's start
-        joins (:func:`.belief.particle.join_clusters`, among the clusters of ``reference`` with
-        the probes' added) by more than :func:`route_gap` within the mission's steps: the prior's
-        chance that a truth does not fly the committed model its particles fly (0 where no probe
-        was planned).  ``[filter] probe_shares`` gives the filter's highest noise level that
-        share of the particles (:meth:`.belief.particle.ParticleBelief.commit`)."""
-        means, _, scale, live = reference
-        n = min(self.m.steps, gains.shape[2])
-        out = np.zeros(len(means))
-        for j, (starts, positions) in enumerate(probed):
-            if not len(starts):
-                continue
-            own = join_clusters(starts[None], means[j:j + 1], scale[j:j + 1], live[j:j + 1])[0]  # (P,)
-            controls = np.array([p.controls for p in plans[j]])  # (K, T, 3)
-            flown = np.array([model_positions(x, means[j, c:c + 1], controls[c:c + 1], gains[j, c:c + 1],
-                                              self.m.dynamics)[0] for x, c in zip(starts, own)])  # (P, T, 2)
-            gap = np.linalg.norm(flown[:, :n] - positions[:, :n], axis=2).max(axis=1)
-            out[j] = float(np.mean(gap > route_gap(scale[j])))
-        return out
+                [p + list(c[2]) for p, c in zip(plans, cols)], np.concatenate([gains, more[2]], axis=1))
 
     def _route_clusters(self, j: int, starts: np.ndarray, mu: np.ndarray, cv: np.ndarray, pl: list[Plan],
-                        gn: np.ndarray, scale: np.ndarray) -> tuple[list[tuple], tuple[np.ndarray, np.ndarray]]:
+                        gn: np.ndarray, scale: np.ndarray) -> list[tuple]:
         """Target j's clusters added for ``starts (P, 6)`` (:meth:`_probe_routes`), each
         ``(mean (6,), cov (6, 6), plan, gains (T, 3, 4))``, given its live clusters' means
         ``mu (K, 6)``, covariances ``cv``, plans ``pl`` and gains ``gn (K, T, 3, 4)`` and the
-        clustering's ``scale (4,)``; and the starts planned with their plans' positions
-        ``((P', 6), (P', T, 2))`` (those before the last cluster added, when the cap stops)."""
+        clustering's ``scale (4,)``."""
         added: list[tuple] = []
-        planned: list[tuple] = []
         # planned as the truth from x is (truth.Truth._first_plan): warm from truth.prior_plan, kept
         # uncertified; a search its budget stops keeps its warm start's route, so another warm start finds others
         warm = self._prior_plan(j)
@@ -452,7 +417,6 @@ class Simulation:
             own = self.guidance.plan(x, cv[near], self.m.goals[j], warm=warm, step=self.t, shift=0)
             if not (own.ok and own.guarded_from == 2) or own.moved_start or len(own.controls) != len(pl[0].controls):
                 continue
-            planned.append((x, own.means[:, :2]))
             flown = model_positions(x, mu, np.array([p.controls for p in pl]), gn, self.m.dynamics)
             if np.linalg.norm(flown - own.means[None, :, :2], axis=2).max(1).min() <= route_gap(scale):
                 continue
@@ -465,9 +429,7 @@ class Simulation:
             pl = pl + [own]
             if len(added) == MAX_ROUTE_CLUSTERS:
                 break
-        t = len(pl[0].controls)
-        return added, (np.array([x for x, _ in planned]).reshape(-1, 6),
-                       np.array([p for _, p in planned]).reshape(-1, t, 2))
+        return added
 
     def _cluster_plans(self, means: np.ndarray, covs: np.ndarray, warm: list[Plan | None], events: list[str]
                        ) -> tuple[list[list[Plan]], np.ndarray]:

@@ -64,9 +64,7 @@ class FilterConfig:
     (:meth:`.particle.ParticleBelief.predict_committed`); ``route_probes``: prior starts
     planned at the first step to find routes the clusters' plans miss
     (:meth:`uavsim.sim.Simulation.first_commit`); ``route_choice``: how a particle's start
-    chooses its cluster's plan (:mod:`.choice`); ``probe_shares``: the highest noise level's
-    share raised per target to how often the route probes' plans leave their clusters' models
-    (:meth:`.particle.ParticleBelief.probe_shares`).
+    chooses its cluster's plan (:mod:`.choice`).
     ``keep_out``: the targets keep out of the obstacles
     (:meth:`.particle.ParticleBelief.keep_out`).  The paper's missions set ``motion =
     "replan"``, ``plan_clusters = 1``, ``loss_nats = 0``, ``noise_scales = [1.0]`` and
@@ -124,12 +122,6 @@ class FilterConfig:
                                     "nearest, its start's nearest; cheapest, the one whose model from its start "
                                     "Eq. (7) finds cheapest among those that keep clear; clear, its nearest unless "
                                     "that model runs into an obstacle, then the cheapest (uavsim.belief.choice)")
-    probe_shares: bool = setting("probe_shares", False, kind="boolean",
-                                 doc="motion = commit with route_probes: each target's highest noise level (the "
-                                     "state's) is carried by at least the share of its route probes whose plan leaves "
-                                     "their cluster's model by more than the prior's spread within the mission's steps "
-                                     "(process noise from how often the plans disagree with the model; "
-                                     "uavsim.belief.particle.ParticleBelief.probe_shares)")
     keep_out: bool = setting("keep_out", kind="boolean", derived="true for kind = particle, else false",
                              doc="the filter knows the targets keep out of the obstacles, as the true ones do: its "
                                  "prior is N(mu_0, Sigma_0) restricted to the starts a true target may take, and a "
@@ -157,11 +149,6 @@ class FilterConfig:
         self._commit_only("route_switch", ROUTE_SWITCH, 0.0, "switches particles between committed plans")
         self._commit_only("route_probes", ROUTE_PROBES, 0, "adds clusters to committed plans")
         self._commit_only("route_choice", "nearest", "nearest", "chooses among committed plans")
-        if self.probe_shares and (self.motion != "commit" or not self.route_probes or len(self.noise_scales) < 2):
-            raise SettingError("probe_shares", f"needs committed plans with route probes and two or more noise levels "
-                                               f"(motion = \"commit\", route_probes > 0, noise_scales of 2+ values), "
-                                               f"got motion = \"{self.motion}\", route_probes = {self.route_probes}, "
-                                               f"{len(self.noise_scales)} noise level(s)")
         if self.motion == "commit" and self.kind != "particle":
             raise SettingError("motion", f"needs particles to cluster (kind = \"particle\"), got kind = "
                                          f"\"{self.kind}\"")

@@ -26,10 +26,6 @@
   ``[filter] route_switch`` a particle may also take one of its cluster's nearest clusters'
   plans, moved to where that plan puts its start (:meth:`ParticleBelief._switch_routes`):
   the nearest cluster's plan is often not the route the truth from that start takes.
-  With ``[filter] probe_shares`` the highest level's chance is, per target, at least the
-  share of the route probes (prior starts planned as the truth would be) whose own plan
-  leaves their cluster's model (:meth:`ParticleBelief.probe_shares`): process noise that
-  grows with how often the plans disagree with the model the particles fly.
 * Update (Eq. 9b) with the measurement-set likelihood Eq. (10).  For uniform clutter
   ``p(phi) = 1 / (2 pi)`` and ``Psi(n; L) = e^-L L^n / n!`` the factorials cancel:
 
@@ -94,7 +90,7 @@ class ParticleFilter:
         # a level's chance when a particle draws one (None: all alike); cumulative, for inverse-CDF draws
         self.cum = (None if shares is None or self.levels is None or np.ptp(shares) == 0
                     else np.cumsum(shares)[:-1])
-        self.mode = None if self.levels is None else self.draw_levels(rng, _rows(particles.shape[:2]))
+        self.mode = None if self.levels is None else self.draw_levels(rng, particles.shape[:2])
         self.applied = np.zeros((*particles.shape[:2], 2))  # (M, N) the ground force each particle moved by last
         self.label = np.zeros(particles.shape[:2], np.intp)  # (M, N) each particle's cluster (motion = "commit")
         self.offset = np.zeros((*particles.shape[:2], 4))  # (M, N, 4) its start less its cluster's mean, HORIZONTAL
@@ -164,28 +160,17 @@ class ParticleFilter:
         noise = rng.standard_normal(out=out)
         if self.levels is not None:
             jump = rng.random(self.mode.shape) < self.switch
-            self.mode[jump] = self.draw_levels(rng, np.nonzero(jump)[0])
+            self.mode[jump] = self.draw_levels(rng, int(jump.sum()))
             noise *= self.levels[self.mode][..., None]
         elif self.unit != 1.0:
             noise *= self.unit
         return noise
 
-    def draw_levels(self, rng: np.random.Generator, rows: np.ndarray) -> np.ndarray:
-        """Noise levels drawn with the chances ``shares`` (all alike when None), one for each
-        of ``rows`` (any shape), the target it is drawn for (its chances, when they are per
-        target: :meth:`share_levels`)."""
+    def draw_levels(self, rng: np.random.Generator, size) -> np.ndarray:
+        """Noise levels drawn with the chances ``shares`` (all alike when None)."""
         if self.cum is None:
-            return rng.integers(len(self.levels), size=rows.shape)
-        u = rng.random(rows.shape)
-        if self.cum.ndim == 1:
-            return np.searchsorted(self.cum, u, side="right")
-        return (self.cum[rows] <= u[..., None]).sum(axis=-1)
-
-    def share_levels(self, rng: np.random.Generator, shares: np.ndarray) -> None:
-        """Each target's noise levels drawn anew with its own chances ``shares (M, L)``
-        (rows summing to 1), which later redraws keep."""
-        self.cum = np.cumsum(shares, axis=1)[:, :-1]
-        self.mode = self.draw_levels(rng, _rows(self.mode.shape))
+            return rng.integers(len(self.levels), size=size)
+        return np.searchsorted(self.cum, rng.random(size), side="right")
 
     def update(self, loglik: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Eq. (9b) with ``loglik (M, N)``.  Returns ``(bad, evidence)``: (M,) bool, the
@@ -244,16 +229,6 @@ class ParticleFilter:
     def moments(self) -> tuple[np.ndarray, np.ndarray]:
         """Eq. (11): weighted means (M, 6) and covariances (M, 6, 6)."""
         return weighted_moments(self.particles, self.weights, self._work)
-
-
-def _rows(shape: tuple[int, int]) -> np.ndarray:
-    """``(M, N)`` each entry's row index."""
-    return _rows_of(np.arange(shape[0]), shape[1])
-
-
-def _rows_of(rows: np.ndarray, n: int) -> np.ndarray:
-    """``(len(rows), n)``: row r's entries all ``rows[r]`` (the target each draw is for)."""
-    return np.broadcast_to(np.asarray(rows)[:, None], (len(rows), n))
 
 
 def within_spread(positions: np.ndarray, weights: np.ndarray, rows: np.ndarray, starts: np.ndarray,
@@ -627,24 +602,6 @@ class ParticleBelief:
         self.sens[..., HORIZONTAL, np.arange(4)] = 1.0
         return means, covs, mass
 
-    def probe_shares(self, missed: np.ndarray) -> None:
-        """The highest noise level's share of each target's particles raised to ``missed
-        (M,)``, the share of its route probes whose committed model misses their route
-        (:meth:`uavsim.sim.Simulation._missed`), where that is more; the other levels keep
-        their proportions.  The motion model is then a mixture whose weights are measured: with
-        that chance the truth flies no plan its cluster's model follows, and its particles need
-        the state's noise to follow it (module docstring).  Levels are drawn anew."""
-        pf = self.pf
-        if pf.levels is None:
-            return
-        base = np.diff(np.r_[0.0, pf.cum, 1.0]) if pf.cum is not None else np.full(len(pf.levels), 1 / len(pf.levels))
-        top = int(np.argmax(pf.levels))
-        share = np.maximum(base[top], missed)  # (M,)
-        rest = np.delete(base, top)
-        rest = rest / rest.sum() if rest.sum() > 0 else np.full(len(rest), 1 / len(rest))
-        shares = np.insert((1.0 - share)[:, None] * rest, top, share, axis=1)  # (M, L)
-        pf.share_levels(self.rng, shares)
-
     def cluster_mass(self, k: int) -> np.ndarray:
         """``(M, k)`` the weight each cluster of :meth:`commit` holds now."""
         return label_mass(self.pf.weights, self.pf.label, k)
@@ -801,7 +758,7 @@ class ParticleBelief:
                                                np.zeros((*fresh.shape[:2], 4))], axis=1)
         if self.pf.mode is not None:
             self.pf.mode[rows] = np.concatenate([np.take_along_axis(self.pf.mode[rows], idx, axis=1),
-                                              self.pf.draw_levels(self.rng, _rows_of(rows, fresh.shape[1]))], axis=1)
+                                              self.pf.draw_levels(self.rng, fresh.shape[:2])], axis=1)
         logw = self.pf.logw.copy()
         logw[rows] = -np.log(n)
         self.pf.logw = logw
