@@ -68,6 +68,8 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "no-line-of-sight": ("optimized", {"sensor.line_of_sight": False}),  # bearings through buildings (the paper's)
     "line-of-sight": ("optimized", {"sensor.line_of_sight": True}),  # for generated worlds, whose missions have none
     "low-noise": ("optimized", {"filter.noise_scales": [0.03, 0.3], "filter.scale_switch": 0.02}),  # NEES against RMSE
+    # the state's noise level (the highest) carried by 25% of the particles instead of 10%
+    "share-25": ("optimized", {"filter.noise_shares": [0.4, 0.35, 0.25]}),
     "lower-noise": ("optimized", {"filter.noise_scales": [0.01, 0.3]}),
     "budget-0.1": ("optimized", {"guidance.replan_budget_s": 0.1}),  # every re-plan's budget, truth's too: speed
     "budget-0.25": ("optimized", {"guidance.replan_budget_s": 0.25}),
