@@ -379,7 +379,8 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-state-noise": "tracking-state-noise.json", "towns-state-noise-b": "tracking-state-noise-b.json",
     "towns-route-cheapest": "tracking-route-cheapest.json", "towns-route-clear": "tracking-route-clear.json",
     "towns-lookahead": "tracking-lookahead.json", "towns-lookahead-b": "tracking-lookahead-b.json",
-    "towns-lookahead-40": "tracking-lookahead-40.json"}
+    "towns-lookahead-40": "tracking-lookahead-40.json", "towns-shares": "tracking-shares.json",
+    "towns-shares-b": "tracking-shares-b.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
