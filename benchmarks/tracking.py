@@ -70,6 +70,7 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "low-noise": ("optimized", {"filter.noise_scales": [0.03, 0.3], "filter.scale_switch": 0.02}),  # NEES against RMSE
     # the state's noise level (the highest) carried by 25% of the particles instead of 10%
     "share-25": ("optimized", {"filter.noise_shares": [0.4, 0.35, 0.25]}),
+    "lookahead-share-25": ("lookahead", {"filter.noise_shares": [0.4, 0.35, 0.25]}),  # with the lookahead UAV
     "lower-noise": ("optimized", {"filter.noise_scales": [0.01, 0.3]}),
     "budget-0.1": ("optimized", {"guidance.replan_budget_s": 0.1}),  # every re-plan's budget, truth's too: speed
     "budget-0.25": ("optimized", {"guidance.replan_budget_s": 0.25}),
