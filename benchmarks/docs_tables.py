@@ -380,7 +380,8 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-route-cheapest": "tracking-route-cheapest.json", "towns-route-clear": "tracking-route-clear.json",
     "towns-lookahead": "tracking-lookahead.json", "towns-lookahead-b": "tracking-lookahead-b.json",
     "towns-lookahead-40": "tracking-lookahead-40.json", "towns-shares": "tracking-shares.json",
-    "towns-shares-b": "tracking-shares-b.json", "towns-shares-large": "tracking-shares-large.json"}
+    "towns-shares-b": "tracking-shares-b.json", "towns-shares-large": "tracking-shares-large.json",
+    "towns-shares-lookahead": "tracking-shares-lookahead.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
