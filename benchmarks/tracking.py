@@ -59,6 +59,8 @@ from towns import mission_file, world_cells
 from uavsim.campaign import run_campaign, with_baseline
 from uavsim.config import load_mission
 
+# the state's noise level (the highest) carried by 25% of the particles instead of 10%
+SHARE_25 = {"filter.noise_shares": [0.4, 0.35, 0.25]}
 VARIANTS = {  # name -> (planner, mission overrides); any other name is a planner with the mission as it is
     "published": ("optimized", {"filter.loss_nats": 0.0, "filter.motion": "replan", "filter.plan_clusters": 1,
                                 "filter.noise_scales": [1.0], "filter.keep_out": False}),
@@ -68,9 +70,8 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "no-line-of-sight": ("optimized", {"sensor.line_of_sight": False}),  # bearings through buildings (the paper's)
     "line-of-sight": ("optimized", {"sensor.line_of_sight": True}),  # for generated worlds, whose missions have none
     "low-noise": ("optimized", {"filter.noise_scales": [0.03, 0.3], "filter.scale_switch": 0.02}),  # NEES against RMSE
-    # the state's noise level (the highest) carried by 25% of the particles instead of 10%
-    "share-25": ("optimized", {"filter.noise_shares": [0.4, 0.35, 0.25]}),
-    "lookahead-share-25": ("lookahead", {"filter.noise_shares": [0.4, 0.35, 0.25]}),  # with the lookahead UAV
+    "share-25": ("optimized", SHARE_25),
+    "lookahead-share-25": ("lookahead", SHARE_25),  # with the lookahead UAV
     "lower-noise": ("optimized", {"filter.noise_scales": [0.01, 0.3]}),
     "budget-0.1": ("optimized", {"guidance.replan_budget_s": 0.1}),  # every re-plan's budget, truth's too: speed
     "budget-0.25": ("optimized", {"guidance.replan_budget_s": 0.25}),
