@@ -30,7 +30,9 @@ baseline likewise, ``OUT/baseline-replan-2``, ``OUT/baseline-commit``); ``state-
 committed cloud's process noise all in the particles' states rather than its lower levels in
 their starts (``filter.noise_space = "state"``; the baseline likewise, ``OUT/baseline-state``);
 ``altitude-120``, ``altitude-200``: the optimized policy with the UAV at 120 or 200 m instead
-of the mission's altitude (the baseline has no UAV).  Every variant runs the same trials (trial k seeded from
+of the mission's altitude (the baseline has no UAV); ``lookahead-share-25-120``: the lookahead
+policy with 25% of the particles on the state's noise level and the UAV at 120 m.  Every
+variant runs the same trials (trial k seeded from
 ``SeedSequence(seed).spawn(trials)[k]``) beside the no-information baseline of those trials
 (:func:`uavsim.campaign.with_baseline`), and reports what a tracking result needs: RMSE over
 the baseline's, overall and per target; lost target-trials (final error over 3
@@ -87,6 +89,7 @@ VARIANTS = {  # name -> (planner, mission overrides); any other name is a planne
     "clear": ("optimized", {"filter.route_choice": "clear"}),  # ... where its nearest cluster's runs into an obstacle
     "altitude-120": ("optimized", {"uav.altitude_m": 120.0}),  # the UAV 3x as high: fewer lines of sight blocked
     "altitude-200": ("optimized", {"uav.altitude_m": 200.0}),
+    "lookahead-share-25-120": ("lookahead", SHARE_25 | {"uav.altitude_m": 120.0}),  # the three town settings together
 }
 # overrides the baseline takes too: they change the truths (truth, guidance) or what the filter
 # knows without a measurement (keep_out, motion, its clusters, their choice and switching, where its noise goes)
