@@ -381,7 +381,9 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-lookahead": "tracking-lookahead.json", "towns-lookahead-b": "tracking-lookahead-b.json",
     "towns-lookahead-40": "tracking-lookahead-40.json", "towns-shares": "tracking-shares.json",
     "towns-shares-b": "tracking-shares-b.json", "towns-shares-large": "tracking-shares-large.json",
-    "towns-shares-lookahead": "tracking-shares-lookahead.json"}
+    "towns-shares-lookahead": "tracking-shares-lookahead.json",
+    "towns-shares-lookahead-b": "tracking-shares-lookahead-b.json", "towns-altitude": "tracking-altitude.json",
+    "towns-altitude-large": "tracking-altitude-large.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,

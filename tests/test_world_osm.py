@@ -157,8 +157,9 @@ def test_the_shipped_helsinki_world_is_the_import_of_its_box():
 
 
 def test_import_command(tmp_path, capsys):
-    """The command writes a world and a mission that validate, with the attribution, and
-    says what the prisms cost; bad input is one line and exit 2."""
+    """The command writes a world and a mission that validate, with the attribution, line of
+    sight and the default altitude (120 m), and says what the prisms cost; bad input is one
+    line and exit 2."""
     out = tmp_path / "small.toml"
     box = ",".join(map(str, SMALL))
     assert main(["world", "import", str(DATA), "--bbox", box, "--targets", "3", "--reach", "0.1,0.9",
@@ -171,6 +172,8 @@ def test_import_command(tmp_path, capsys):
     assert main(["validate", str(out)]) == 0
     m = load_mission(out)
     assert len(m.targets) == 3 and m.world.prisms is not None
+    # line of sight on, the UAV at 120 m above every roof of the crop (its tallest is under 100 m)
+    assert m.sensor.line_of_sight and m.uav.altitude == m.uav.start[2] == 120.0 > m.world.obstacle_hi[:, 2].max()
     capsys.readouterr()
     other = str(tmp_path / "other.toml")
     for args, fragment in [([str(DATA), "--bbox", "24.95,60.17,24.94,60.18", "--out", other], "lon0 < lon1"),

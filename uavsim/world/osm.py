@@ -1295,7 +1295,7 @@ def street_starts(town: Town, pieces: list, margin: float, n: int, rng, *,
 # a world and a mission
 # --------------------------------------------------------------------------- #
 def town_world(town: Town, pieces: list, n_targets: int, rng, settings=None, name: str = "town",
-               reach: tuple[float, float] = (0.3, 0.9), altitude: float = 40.0, goals: int = 6):
+               reach: tuple[float, float] = (0.3, 0.9), altitude: float = 120.0, goals: int = 6):
     """A :class:`uavsim.world.draw.Generated` world + mission of ``town``: the pieces as
     prisms, goal regions in open places (:func:`goal_regions`), ``n_targets`` targets
     started on streets (:func:`street_starts`) at rest, each given a goal whose free path
