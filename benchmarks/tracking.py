@@ -53,13 +53,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
 from harness import machine, markdown_table, write
 from towns import mission_file, world_cells
 
-from uavsim.campaign import run_campaign, with_baseline
+from uavsim.campaign import CampaignError, run_campaign, with_baseline
 from uavsim.config import load_mission
 
 # the state's noise level (the highest) carried by 25% of the particles instead of 10%
@@ -99,10 +100,12 @@ SHARED = ("truth", "guidance.", "filter.keep_out", "filter.motion", "filter.plan
           "filter.noise_space", "filter.route_choice")
 
 
-def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, workers: int, resume: bool) -> dict:
+def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, workers: int, resume: bool,
+             ran: set | None = None) -> dict:
     """One variant's campaign summary with the no-information baseline of the same trials
     (``OUT/baseline``; a variant that changes the truth, its kind or its guidance, has its
-    own, named by the values: ``OUT/baseline-stochastic``, ``OUT/baseline-0.1``)."""
+    own, named by the values: ``OUT/baseline-stochastic``, ``OUT/baseline-0.1``).  ``ran``:
+    the baseline folders this invocation has run, which later variants reuse."""
     planner, extra = VARIANTS.get(variant, (variant, {}))
     if "uav.altitude_m" in extra:  # the start's z goes with the altitude (a start off it is an error)
         x, y = load_mission(path).uav.start[:2]
@@ -110,9 +113,12 @@ def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, worke
     m = load_mission(path, {"steps": steps, "trials": trials, **extra})
     shared = {k: v for k, v in extra.items() if k.startswith(SHARED)}
     base = load_mission(path, {"steps": steps, "trials": trials, **shared})
-    folder = "-".join(["baseline", *map(str, shared.values())])  # baseline, baseline-stochastic, baseline-0.1
-    return with_baseline(run_campaign(m, planner, out / variant, workers=workers, resume=resume),
-                         run_campaign(base, "baseline", out / folder, workers=workers, resume=resume))
+    folder = out / "-".join(["baseline", *map(str, shared.values())])  # baseline, baseline-stochastic, ...
+    ran = set() if ran is None else ran
+    summary = run_campaign(m, planner, out / variant, workers=workers, resume=resume)
+    base_summary = run_campaign(base, "baseline", folder, workers=workers, resume=resume or folder in ran)
+    ran.add(folder)
+    return with_baseline(summary, base_summary)
 
 
 def figures(s: dict) -> dict:
@@ -139,9 +145,9 @@ def figures(s: dict) -> dict:
 def run_world(world: str, n: int, variants: list[str], args) -> list[dict]:
     folder = Path(args.out) / f"{world}-n{n}"
     path = mission_file(world, n, folder)
-    rows = []
+    rows, ran = [], set()
     for v in variants:
-        s = campaign(path, v, args.trials, args.steps, folder, args.workers, args.resume)
+        s = campaign(path, v, args.trials, args.steps, folder, args.workers, args.resume, ran)
         (folder / f"{v}.json").write_text(json.dumps(s, default=float))
         rows.append({"world": world, "targets": n, "variant": v, "trials": args.trials, "steps": args.steps,
                      **figures(s)})
@@ -195,8 +201,12 @@ def main() -> None:
         print(table(json.loads(Path(args.report).read_text())["rows"]))
         return
     started = machine()
-    for world, n in dict.fromkeys(world_cells(args.worlds, args.targets)):
-        run_world(world, n, args.variants.split(","), args)
+    try:
+        for world, n in dict.fromkeys(world_cells(args.worlds, args.targets)):
+            run_world(world, n, args.variants.split(","), args)
+    except CampaignError as exc:  # a folder of another campaign, or one that needs --resume
+        print(f"error: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
     # every row in OUT, this run's and earlier runs' (other worlds or variants) alike
     rows = [json.loads(p.read_text()) for p in sorted(Path(args.out).glob("*/*.row.json"))]
     result = {"settings": vars(args), "rows": rows}
