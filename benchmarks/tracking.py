@@ -101,7 +101,7 @@ SHARED = ("truth", "guidance.", "filter.keep_out", "filter.motion", "filter.plan
 
 
 def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, workers: int, resume: bool,
-             ran: set | None = None) -> dict:
+             ran: set) -> dict:
     """One variant's campaign summary with the no-information baseline of the same trials
     (``OUT/baseline``; a variant that changes the truth, its kind or its guidance, has its
     own, named by the values: ``OUT/baseline-stochastic``, ``OUT/baseline-0.1``).  ``ran``:
@@ -114,7 +114,6 @@ def campaign(path: Path, variant: str, trials: int, steps: int, out: Path, worke
     shared = {k: v for k, v in extra.items() if k.startswith(SHARED)}
     base = load_mission(path, {"steps": steps, "trials": trials, **shared})
     folder = out / "-".join(["baseline", *map(str, shared.values())])  # baseline, baseline-stochastic, ...
-    ran = set() if ran is None else ran
     summary = run_campaign(m, planner, out / variant, workers=workers, resume=resume)
     base_summary = run_campaign(base, "baseline", folder, workers=workers, resume=resume or folder in ran)
     ran.add(folder)

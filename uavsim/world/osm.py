@@ -1295,12 +1295,13 @@ def street_starts(town: Town, pieces: list, margin: float, n: int, rng, *,
 # a world and a mission
 # --------------------------------------------------------------------------- #
 def town_world(town: Town, pieces: list, n_targets: int, rng, settings=None, name: str = "town",
-               reach: tuple[float, float] = (0.3, 0.9), altitude: float = 120.0, goals: int = 6):
+               reach: tuple[float, float] = (0.3, 0.9), goals: int = 6, *, altitude: float):
     """A :class:`uavsim.world.draw.Generated` world + mission of ``town``: the pieces as
     prisms, goal regions in open places (:func:`goal_regions`), ``n_targets`` targets
     started on streets (:func:`street_starts`) at rest, each given a goal whose free path
     (among the inflated pieces) is ``reach[0]..reach[1]`` of the horizon's straight reach
-    ``T dt v_max``, the UAV at ``altitude`` over the whole area, and three fixed sensors on
+    ``T dt v_max``, the UAV at ``altitude`` (m; the command's ``--altitude-m`` holds the
+    default) over the whole area, and three fixed sensors on
     free ground.  The mission's sensor needs a line of sight (``[sensor] line_of_sight``).
 
     Raises
