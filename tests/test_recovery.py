@@ -4,6 +4,7 @@ bearings and the routes (uavsim.belief.recovery), in isolation and in the closed
 import math
 
 import numpy as np
+import pytest
 
 from uavsim.belief import recovery
 from uavsim.config import load_mission
@@ -54,6 +55,38 @@ def test_a_target_without_a_bearing_keeps_its_cloud():
     fresh, ok = recovery.draw(np.random.default_rng(0), cloud, [scan], np.zeros((1, 3)), m.sensor, m.world, [None],
                               np.array([0]), 20)
     assert ok.tolist() == [False]
+
+
+def test_reach_by_hand():
+    """A prior of mean velocity (3, 4) m/s, horizontal standard deviations at most 20 m and 3
+    m/s, after 3 steps of 1 s at speed_max 10 m/s: 4 x 20 + (5 + 4 x 3) x 1 + 2 x 10 = 117 m;
+    with a stochastic truth's noise of standard deviations at most 2 m and 1 m/s a step,
+    4 x (3 x 2 + 3 x 1 x 1) = 36 m more."""
+    mean0 = np.array([[0.0, 0.0, 0.0, 3.0, 4.0, 0.0]])
+    cov0 = np.diag([100.0, 400.0, 1e-10, 1.0, 9.0, 1e-10])[None]
+    assert recovery.reach(mean0, cov0, 3, 1.0, 10.0) == pytest.approx([117.0])
+    q = np.diag([4.0, 1.0, 1e-10, 1.0, 0.25, 1e-10])
+    assert recovery.reach(mean0, cov0, 3, 1.0, 10.0, q) == pytest.approx([153.0])
+
+
+def test_draws_stay_within_the_reach():
+    """Paper world, a bearing of 0.6 rad from (300, 300): with a 40 m disc about the point
+    150 m along it every draw lies within 40 m of that point (the ray alone spans the
+    area); with a disc the ray misses the target keeps its cloud."""
+    m = load_mission(PAPER)
+    rng = np.random.default_rng(5)
+    observer = np.array([[300.0, 300.0, 40.0]])
+    scan = Scan(np.array([[0.6]]), np.array([[True]]), np.array([[True]]))
+    cloud = np.zeros((1, 500, 6))
+    centre = np.array([[300.0 + 150.0 * math.sin(0.6), 300.0 + 150.0 * math.cos(0.6)]])
+    for disc, placed in (((centre, np.array([40.0])), True), ((centre + [[0.0, -140.0]], np.array([40.0])), False)):
+        fresh, ok = recovery.draw(rng, cloud, [scan], observer, m.sensor, m.world, [None], np.array([0]), 400, disc)
+        assert ok.tolist() == [placed]
+    fresh, _ = recovery.draw(rng, cloud, [scan], observer, m.sensor, m.world, [None], np.array([0]), 400,
+                             (centre, np.array([40.0])))
+    moved = np.any(fresh[0, :, :2] != 0.0, axis=1)
+    assert moved.mean() > 0.5
+    assert np.hypot(*(fresh[0, moved, :2] - centre[0]).T).max() <= 40.0 + 1e-9
 
 
 def _displaced_errors(nats: float, seed: int) -> tuple[np.ndarray, list[tuple[int, str]]]:

@@ -39,8 +39,8 @@ Each step t -> t+1:
    sensors, no sensor), or takes the move given to :meth:`Simulation.step`;
 5. **truth moves**, then **sense and update** (Eq. 4, 9b-11) from the policy's observers;
    a track the belief declares lost (``[filter] loss_nats``, :mod:`.belief.particle`) is
-   re-seeded from the scans and the routes to its goal (:mod:`.belief.recovery`) and
-   logged as a track-loss event.
+   re-seeded from the scans, within its reach from the prior, and the routes to its goal
+   (:mod:`.belief.recovery`) and logged as a track-loss event.
 
 Randomness: a trial gets one ``SeedSequence``; it spawns separate streams for the truth's
 process noise, the sensor, the filter, the UAV start and the truth's initial state (and a
@@ -57,7 +57,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .belief import choice, make_belief
+from .belief import choice, make_belief, recovery
 from .belief.particle import nearest_clusters, reference_clusters, restricted_draws
 from .guidance import Guidance, Plan
 from .mission import Mission
@@ -230,10 +230,14 @@ class Simulation:
         return np.stack([w.in_obstacle(p) for p in w.on_ground(positions)])
 
     def _recover(self, scans, observers, sensor) -> list[str]:
-        """Re-seed the tracks the belief declares lost, each from the routes to its goal."""
+        """Re-seed the tracks the belief declares lost, each from the routes to its goal and
+        within its reach from the prior after the ``t + 1`` steps the truth has made."""
         goal = [t.goal for t in self.m.targets]
+        mean0 = np.array([t.mean0 for t in self.m.targets])
+        radii = recovery.reach(mean0, np.array([t.cov0 for t in self.m.targets]), self.t + 1, self.m.dynamics.dt,
+                               self.m.guidance.speed_max, self.m.dynamics.q if self.m.truth == "stochastic" else None)
         return self.belief.recover(scans, observers, sensor, self.m.world, lambda j: self._field(goal[j]),
-                                   self.m.filter.reseed_share)
+                                   self.m.filter.reseed_share, (mean0[:, :2], radii))
 
     def _field(self, goal: int):
         """The route field to world goal ``goal`` (built once per simulation, when first needed)."""

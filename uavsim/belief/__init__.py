@@ -212,7 +212,7 @@ class Belief(Protocol):
         """``(M,)`` bool: tracks declared lost (particle beliefs with ``loss_nats > 0``)."""
 
     def recover(self, scans: list[Scan], observers: np.ndarray, sensor: BearingModel, world, route_field,
-                share: float) -> list[str]:
+                share: float, discs: tuple[np.ndarray, np.ndarray]) -> list[str]:
         """Re-seed the :attr:`lost` tracks from the scans (:mod:`.recovery`); track-loss events."""
 
     def drain_notes(self) -> list[str]:

@@ -721,18 +721,19 @@ class ParticleBelief:
         return self.pf.moments()
 
     def recover(self, scans: list[Scan], observers: np.ndarray, sensor: BearingModel, world, route_field,
-                share: float) -> list[str]:
+                share: float, discs: tuple[np.ndarray, np.ndarray]) -> list[str]:
         """Re-seed the targets declared :attr:`lost` from this step's ``scans`` taken at
         ``observers (S, 3)`` (:func:`.recovery.draw`; ``route_field(j)``: the route field to
-        target j's goal), ``share`` of their particles each (:meth:`reseed`).  Returns a
-        track-loss event per target re-seeded; one without a bearing this step stays
-        declared lost and waits for the next scan."""
+        target j's goal; ``discs``: every target's centre ``(M, 2)`` and radius ``(M,)`` of
+        where it can be, :func:`.recovery.reach`), ``share`` of their particles each
+        (:meth:`reseed`).  Returns a track-loss event per target re-seeded; one without a
+        bearing this step stays declared lost and waits for the next scan."""
         rows = np.flatnonzero(self.lost)
         cloud = self.pf.particles[rows]
         n = max(1, round(share * cloud.shape[1]))
         evidence = self.cusum[rows]
         fresh, ok = recovery.draw(self.rng, cloud, scans, observers, sensor, world, [route_field(j) for j in rows],
-                                  rows, n)
+                                  rows, n, (discs[0][rows], discs[1][rows]))
         self.reseed(rows[ok], fresh[ok])
         return [f"{self.names[j]}: track lost ({e:.1f} nats against its cloud); {n} of {cloud.shape[1]} particles "
                 "re-seeded along its bearings and routes" for j, e in zip(rows[ok], evidence[ok])]

@@ -7,8 +7,9 @@ the target may be ("sensor resetting", [Lenser2000]):
 
 * **position**: a measured bearing, picked uniformly among the step's valid ones (the
   target's own with probability about ``p_D / (p_D + L)``, clutter otherwise: later scans
-  weigh them), plus N(0, sigma^2) noise, and a range uniform along that ray inside the
-  area (from the observer out to the area's edge), outside every obstacle;
+  weigh them), plus N(0, sigma^2) noise, and a range uniform along that ray where the
+  target can be: inside the area and within its reach from the prior (:func:`reach`),
+  outside every obstacle;
 * **velocity**: the speed of a particle of the old cloud, along the shortest free route
   to the target's goal from the new position (:class:`uavsim.world.routes.GoalField`,
   its gradient by central differences at 32 of the positions, each draw taking its
@@ -33,18 +34,43 @@ from ..world.model import World
 if TYPE_CHECKING:  # the routes bring scipy and shapely, which reading a mission does not need
     from ..world.routes import GoalField
 
+REACH_SIGMAS = 4.0  # prior and process-noise standard deviations a target's reach allows (reach)
 ROUTE_POINTS = 32  # positions per target where the route's direction is computed
 ROUTE_STEP_M = 1.0  # central-difference step of the route length's gradient
 REDRAWS = 8  # rounds of redrawing a range that falls in an obstacle
 
 
+def reach(mean0: np.ndarray, cov0: np.ndarray, steps: int, dt: float, speed_max: float,
+          q: np.ndarray | None = None) -> np.ndarray:
+    """``(M,)`` radii (m) of the discs about the prior means ``mean0 (M, 6)`` that hold the
+    targets after ``steps`` steps of Eq. (2): a start within :data:`REACH_SIGMAS` of
+    ``N(mu_0, Sigma_0)`` (``cov0 (M, 6, 6)``, its largest horizontal standard deviations),
+    the first step at the drawn velocity, every later one at most ``speed_max`` (the guidance
+    keeps the planned velocities in its inscribed speed polygon, Eq. (8)) and, with the
+    process noise ``q (6, 6)`` of a stochastic truth, each step's noise within as many of
+    its standard deviations (its velocity noise carried for the remaining steps).  A
+    target outside its disc is one the model says cannot be there."""
+    def sd(c, axes):
+        return np.sqrt(np.linalg.eigvalsh(c[..., axes, :][..., :, axes])[..., -1])
+
+    pos, vel = [0, 1], [3, 4]
+    r = REACH_SIGMAS * sd(cov0, pos) + (np.hypot(*mean0[:, vel].T) + REACH_SIGMAS * sd(cov0, vel)) * dt
+    r = r + max(steps - 1, 0) * speed_max * dt
+    if q is not None:
+        r = r + REACH_SIGMAS * (steps * sd(q, pos) + steps * (steps - 1) / 2 * sd(q, vel) * dt)
+    return r
+
+
 def draw(rng: np.random.Generator, cloud: np.ndarray, scans: list[Scan], observers: np.ndarray, sensor: BearingModel,
-         world: World, fields: list[GoalField | None], rows: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+         world: World, fields: list[GoalField | None], rows: np.ndarray, n: int,
+         discs: tuple[np.ndarray, np.ndarray] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """``(fresh (L, n, 6), ok (L,))``: n draws for each lost target ``rows (L,)`` from its
     old particles ``cloud (L, N, 6)`` and the step's ``scans`` taken at ``observers (S, 3)``
     (module docstring); ``fields[l]``: the route field to row l's goal (None: straight to
-    nothing, the old velocities are kept).  ``ok`` is False where the step has no valid
-    bearing of that target or no ray crosses free ground: those keep their cloud."""
+    nothing, the old velocities are kept); ``discs``: centres ``(L, 2)`` and radii ``(L,)``
+    of where each can be (:func:`reach`; None: anywhere in the area).  ``ok`` is False where
+    the step has no valid bearing of that target or no ray crosses free ground within its
+    disc: those keep their cloud."""
     bearings = np.concatenate([s.bearings[rows] for s in scans], axis=1)  # (L, S K)
     valid = np.concatenate([s.valid[rows] for s in scans], axis=1)
     origin = np.concatenate([np.broadcast_to(o[:2], (s.valid.shape[1], 2)) for s, o in zip(scans, observers)])
@@ -55,6 +81,9 @@ def draw(rng: np.random.Generator, cloud: np.ndarray, scans: list[Scan], observe
     o = origin[pick]  # (L, n, 2)
     old = cloud[np.arange(len(rows))[:, None], rng.integers(cloud.shape[1], size=pick.shape)]  # (L, n, 6)
     t0, t1 = _ray_in_box(o, u, world.area_lo[:2], world.area_hi[:2])
+    if discs is not None:
+        c0, c1 = _ray_in_disc(o, u, discs[0][:, None, :], discs[1][:, None])
+        t0, t1 = np.maximum(t0, c0), np.minimum(t1, c1)
     xyz = old[..., :3].copy()
     todo = t1 > t0
     for _ in range(REDRAWS):
@@ -94,6 +123,16 @@ def _ray_in_box(o: np.ndarray, u: np.ndarray, lo: np.ndarray, hi: np.ndarray) ->
     t0 = np.maximum(np.minimum(a, b).max(axis=-1), 0.0)
     t1 = np.maximum(a, b).min(axis=-1)
     return t0, t1
+
+
+def _ray_in_disc(o: np.ndarray, u: np.ndarray, c: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(t0, t1)``, each ``(...)``: the part ``o + t u, t0 <= t <= t1`` of each ray ``o
+    (..., 2)``, unit ``u (..., 2)`` inside the disc of centre ``c (..., 2)`` and radius ``r
+    (...)`` (``t1 < t0``: none)."""
+    along = ((c - o) * u).sum(axis=-1)
+    half = r**2 - ((c - o) ** 2).sum(axis=-1) + along**2
+    root = np.sqrt(np.maximum(half, 0.0))
+    return np.where(half >= 0, along - root, np.inf), np.where(half >= 0, along + root, -np.inf)
 
 
 def _route_heading(rng: np.random.Generator, field: GoalField, points: np.ndarray) -> np.ndarray:
