@@ -89,6 +89,24 @@ def test_draws_stay_within_the_reach():
     assert np.hypot(*(fresh[0, moved, :2] - centre[0]).T).max() <= 40.0 + 1e-9
 
 
+def test_a_lost_track_whose_bearings_miss_its_reach_stays_lost():
+    """Paper mission: target 1 declared lost (its evidence set past loss_nats) with a disc
+    of 1 m far from every ray of the step's scan: nothing is re-seeded, no event, its cloud
+    unchanged and still declared lost (it waits for the next scan)."""
+    m = load_mission(PAPER, {"filter.particles": 200, "filter.loss_nats": 10.0})
+    sim = Simulation(m, "optimized")
+    sim.reset(1)
+    belief = sim.belief
+    belief.cusum[0] = 100.0
+    before = belief.pf.particles.copy()
+    scan = Scan(np.full((len(m.targets), 1), 0.6), np.ones((len(m.targets), 1), bool),
+                np.ones((len(m.targets), 1), bool))
+    observer = np.array([[300.0, 300.0, 40.0]])
+    centres, radii = np.full((len(m.targets), 2), 300.0) + [[0.0, -200.0]], np.ones(len(m.targets))
+    events = belief.recover([scan], observer, m.sensor, m.world, lambda j: None, 0.5, (centres, radii))
+    assert events == [] and belief.lost[0] and np.array_equal(belief.pf.particles, before)
+
+
 def _displaced_errors(nats: float, seed: int) -> tuple[np.ndarray, list[tuple[int, str]]]:
     """Paper mission, 2000 particles: target 1's whole cloud moved 180 m off its truth,
     across the UAV's line of sight (a bearing cannot tell a cloud moved along it), before

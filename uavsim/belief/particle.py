@@ -727,7 +727,8 @@ class ParticleBelief:
         target j's goal; ``discs``: every target's centre ``(M, 2)`` and radius ``(M,)`` of
         where it can be, :func:`.recovery.reach`), ``share`` of their particles each
         (:meth:`reseed`).  Returns a track-loss event per target re-seeded; one without a
-        bearing this step stays declared lost and waits for the next scan."""
+        bearing this step, or whose bearings all miss its disc, stays declared lost and
+        waits for the next scan."""
         rows = np.flatnonzero(self.lost)
         cloud = self.pf.particles[rows]
         n = max(1, round(share * cloud.shape[1]))
@@ -745,6 +746,8 @@ class ParticleBelief:
         then weighs ``1 / N``; the loss evidence of those targets restarts at 0.  A fresh
         particle joins the committed cluster whose kept particles' mean position is nearest
         (:func:`nearest_label`), with no offset: it flies that cluster's plan."""
+        if not rows.size:  # no lost target has a ray to draw from this step
+            return
         n = self.pf.particles.shape[1]
         keep = n - fresh.shape[1]
         idx = systematic_indices(self.rng, self.pf.weights[rows], keep)
