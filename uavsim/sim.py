@@ -124,6 +124,10 @@ class Simulation:
         self.policy = make_policy(planner, mission)
         self.guidance = guidance or Guidance(mission.world, mission.dynamics, mission.guidance)
         self._fields: dict = {}  # goal index -> GoalField (track recovery)
+        # the targets' priors: mu_0 (M, 6) and Sigma_0 (M, 6, 6)
+        self.means0 = np.array([t.mean0 for t in mission.targets])
+        self.covs0 = np.array([t.cov0 for t in mission.targets])
+        self.means0.flags.writeable = self.covs0.flags.writeable = False  # every trial starts from them
 
     def reset(self, seed: np.random.SeedSequence | int) -> StepInfo:
         if isinstance(seed, np.random.SeedSequence):  # a fresh copy: spawning twice from one object differs
@@ -135,8 +139,7 @@ class Simulation:
                                                                                          ss.spawn(6))
         m = self.m
         self.truth = Truth(m, self.guidance, start_rng, truth_rng)
-        self.belief = make_belief(m.filter, filter_rng, np.array([t.mean0 for t in m.targets]),
-                                  np.array([t.cov0 for t in m.targets]), m.guidance.speed_max,
+        self.belief = make_belief(m.filter, filter_rng, self.means0, self.covs0, m.guidance.speed_max,
                                   tuple(t.name for t in m.targets), self._clear)
         self.t, self._prepared = 0, False
         self.plans: list[Plan | None] = [None] * len(m.targets)
@@ -233,11 +236,10 @@ class Simulation:
         """Re-seed the tracks the belief declares lost, each from the routes to its goal and
         within its reach from the prior after the ``t + 1`` steps the truth has made."""
         goal = [t.goal for t in self.m.targets]
-        mean0 = np.array([t.mean0 for t in self.m.targets])
-        radii = recovery.reach(mean0, np.array([t.cov0 for t in self.m.targets]), self.t + 1, self.m.dynamics.dt,
-                               self.m.guidance.speed_max, self.m.dynamics.q if self.m.truth == "stochastic" else None)
+        radii = recovery.reach(self.means0, self.covs0, self.t + 1, self.m.dynamics.dt, self.m.guidance.speed_max,
+                               self.m.dynamics.q if self.m.truth == "stochastic" else None)
         return self.belief.recover(scans, observers, sensor, self.m.world, lambda j: self._field(goal[j]),
-                                   self.m.filter.reseed_share, (mean0[:, :2], radii))
+                                   self.m.filter.reseed_share, (self.means0[:, :2], radii))
 
     def _field(self, goal: int):
         """The route field to world goal ``goal`` (built once per simulation, when first needed)."""
@@ -335,7 +337,7 @@ class Simulation:
         ``[filter] route_probes`` the reference cloud's first starts are planned too, and each
         whose plan no cluster's model follows becomes a cluster (:meth:`_probe_routes`)."""
         m = self.m
-        means0, covs0 = np.array([t.mean0 for t in m.targets]), np.array([t.cov0 for t in m.targets])
+        means0, covs0 = self.means0, self.covs0
         key = ("first commit", k, m.filter.particles, m.filter.keep_out, m.filter.route_probes, means0.tobytes(),
                covs0.tobytes(), np.array(m.goals).tobytes())
         if key in self.guidance.kept:  # its capped solves (Plan.capped) count in every trial that reuses it
