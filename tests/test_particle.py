@@ -349,7 +349,8 @@ def test_committed_prediction_is_the_cluster_force_plus_the_gain_on_the_offset()
     its [x, y, vx, vy] less its cluster's weighted mean, and the prediction is Eq. (9a)
     with force ``u_c + K_c offset`` (by hand, with the generator's next normals); resampling
     carries a particle's cluster and offset with it; a re-seeded particle joins the
-    cluster whose mean position is nearest, with no offset."""
+    cluster whose plan's state now is nearest, with no offset, whether or not any particle
+    kept is of that cluster."""
     rng = np.random.default_rng(2)
     mean = np.zeros((1, 6))
     cov = np.diag([400.0, 400.0, 1e-10, 4.0, 4.0, 1e-10])[None]
@@ -376,14 +377,17 @@ def test_committed_prediction_is_the_cluster_force_plus_the_gain_on_the_offset()
     b.pf.resample(np.random.default_rng(4), 1.0)
     assert (b.pf.label[0] == 1).all()
     assert np.isin(b.pf.offset[0, :, 0], offsets[:, 0]).all()
-    b.pf.label[0, :300] = 2  # two clusters kept, around their own positions; fresh particles join the nearer
-    b.pf.particles[0, :300, :2] += 500.0
-    b.pf.logw = np.full((1, 600), -np.log(600))
-    fresh = np.zeros((1, 100, 6))
-    fresh[0, :50, :2] = b.pf.particles[0, :300, :2].mean(axis=0)
+    # fresh particles join the cluster whose plan's state now is nearest in [x, y, vx, vy],
+    # cluster 0 and 2 though no kept particle is theirs: 0 and 2 share a place and differ in heading
+    b.nominal[0] = 0.0
+    b.nominal[0, 1, :2] = 500.0
+    b.nominal[0, 0, 3], b.nominal[0, 2, 4] = 10.0, 10.0
+    fresh = np.zeros((1, 300, 6))
+    fresh[0, :100, :2] = 490.0
+    fresh[0, 100:200, 3], fresh[0, 200:, 4] = 9.0, 9.0
     b.reseed(np.array([0]), fresh)
-    np.testing.assert_array_equal(b.pf.label[0, 500:], np.r_[np.full(50, 2), np.full(50, 1)])
-    np.testing.assert_array_equal(b.pf.offset[0, 500:], 0.0)
+    np.testing.assert_array_equal(b.pf.label[0, 300:], np.repeat([1, 0, 2], 100))
+    np.testing.assert_array_equal(b.pf.offset[0, 300:], 0.0)
 
 
 def test_route_switch_takes_a_nearest_cluster_and_flies_its_model():

@@ -244,17 +244,6 @@ def within_spread(positions: np.ndarray, weights: np.ndarray, rows: np.ndarray, 
     return (both * sol).sum(axis=1).min(axis=1) <= SWITCH_SUPPORT
 
 
-def nearest_label(particles: np.ndarray, label: np.ndarray, fresh: np.ndarray) -> np.ndarray:
-    """``(L, R)``: for ``fresh (L, R, 6)`` particles, the cluster of ``particles (L, N, 6)``
-    (labelled ``label (L, N)``) whose mean position is nearest."""
-    k = int(label.max()) + 1 if label.size else 1
-    member = label[..., None] == np.arange(k)  # (L, N, k)
-    count = member.sum(axis=1)  # (L, k)
-    centre = np.einsum("lnk,lni->lki", member, particles[..., :2]) / np.maximum(count, 1)[..., None]
-    d = ((fresh[:, :, None, :2] - centre[:, None]) ** 2).sum(-1)  # (L, R, k)
-    return np.argmin(np.where(count[:, None, :] > 0, d, np.inf), axis=2)
-
-
 def restricted_draws(rng: np.random.Generator, means: np.ndarray, covs: np.ndarray, n: int, clear=None,
                      rounds: int = PRIOR_ROUNDS) -> tuple[np.ndarray, np.ndarray]:
     """``(M, n, 6)`` draws from ``N(means (M, 6), covs (M, 6, 6))`` restricted to the
@@ -525,6 +514,7 @@ class ParticleBelief:
         self.sens = None  # (M, k, 6, 4) each committed cluster's G_t = d x_t / d offset (motion = "commit")
         self.origins = self.nominal = None  # (M, k, 6) each committed cluster's mean at commit, and its plan's now
         self.neighbours = None  # (M, k, ROUTE_NEIGHBOURS) each committed cluster's nearest others
+        self.scale = self.live = None  # (M, 4) the committed clustering's scale; (M, k) its clusters with particles
         self.threshold, self.roughening, self.loss_nats = resample_threshold, roughening, loss_nats
         particles, unrestricted = restricted_draws(rng, means, covs, n, clear)
         self.pf = ParticleFilter.from_priors(rng, means, covs, n, noise_scales, scale_switch, particles, noise_shares)
@@ -597,6 +587,7 @@ class ParticleBelief:
         own = by_label(means, self.pf.label)  # (M, N, 6) each particle's cluster mean
         self.pf.offset = (self.pf.particles - own)[..., HORIZONTAL]
         self.origins, self.nominal = means.copy(), means.copy()
+        self.scale, self.live = scale, live
         self.neighbours = cluster_neighbours(means, scale, live & (np.arange(live.shape[1]) < live.shape[1] - probed))
         self.sens = np.zeros((*mass.shape, 6, 4))
         self.sens[..., HORIZONTAL, np.arange(4)] = 1.0
@@ -743,9 +734,15 @@ class ParticleBelief:
         """Targets ``rows (L,)`` take ``fresh (L, R, 6)`` particles in place of R of their
         own: the cloud is first resampled (systematic) to ``N - R`` equally weighted
         particles, so the part still on the target keeps its share, and every particle
-        then weighs ``1 / N``; the loss evidence of those targets restarts at 0.  A fresh
-        particle joins the committed cluster whose kept particles' mean position is nearest
-        (:func:`nearest_label`), with no offset: it flies that cluster's plan."""
+        then weighs ``1 / N``; the loss evidence of those targets restarts at 0.  With
+        committed plans a fresh particle joins the cluster whose plan's state now
+        (:attr:`nominal`) is nearest its own in ``[x, y, vx, vy]`` (:func:`join_clusters`, the
+        scale of the commit), among every cluster that held particles at the commit, with no
+        offset: it flies that cluster's plan.  A lost cloud's own clusters are those of the
+        route it wrongly followed; a route no particle follows any more is the one to join
+        where the bearings put the target (on the hand-made street grid, before this rule, a
+        target re-seeded on the street it had turned north into had its fresh particles join
+        the kept cluster 50 m away heading east, whose plan drove them back to the wrong street)."""
         if not rows.size:  # no lost target has a ray to draw from this step
             return
         n = self.pf.particles.shape[1]
@@ -757,7 +754,9 @@ class ParticleBelief:
         self.pf.applied[rows] = np.concatenate([kept_force, np.broadcast_to(
             kept_force.mean(axis=1, keepdims=True), (*fresh.shape[:2], 2))], axis=1)
         kept_label = np.take_along_axis(self.pf.label[rows], idx, axis=1)
-        self.pf.label[rows] = np.concatenate([kept_label, nearest_label(kept, kept_label, fresh)], axis=1)
+        fresh_label = (np.zeros(fresh.shape[:2], np.intp) if self.nominal is None else
+                       join_clusters(fresh, self.nominal[rows], self.scale[rows], self.live[rows]))
+        self.pf.label[rows] = np.concatenate([kept_label, fresh_label], axis=1)
         self.pf.offset[rows] = np.concatenate([np.take_along_axis(self.pf.offset[rows], idx[..., None], axis=1),
                                                np.zeros((*fresh.shape[:2], 4))], axis=1)
         if self.pf.mode is not None:
