@@ -60,13 +60,14 @@ def test_a_target_without_a_bearing_keeps_its_cloud():
 def test_reach_by_hand():
     """A prior of mean velocity (3, 4) m/s, horizontal standard deviations at most 20 m and 3
     m/s, after 3 steps of 1 s at speed_max 10 m/s: 4 x 20 + (5 + 4 x 3) x 1 + 2 x 10 = 117 m;
-    with a stochastic truth's noise of standard deviations at most 2 m and 1 m/s a step,
-    4 x (3 x 2 + 3 x 1 x 1) = 36 m more."""
+    with a stochastic truth's noise of standard deviations at most 2 m and 1 m/s a step, 4
+    standard deviations of the summed noise more: 3 x 2^2 in position and (2^2 + 1^2) x 1^2
+    from the velocity noise of steps 1 and 2 carried on, 4 sqrt(17) = 16.49 m."""
     mean0 = np.array([[0.0, 0.0, 0.0, 3.0, 4.0, 0.0]])
     cov0 = np.diag([100.0, 400.0, 1e-10, 1.0, 9.0, 1e-10])[None]
     assert recovery.reach(mean0, cov0, 3, 1.0, 10.0) == pytest.approx([117.0])
     q = np.diag([4.0, 1.0, 1e-10, 1.0, 0.25, 1e-10])
-    assert recovery.reach(mean0, cov0, 3, 1.0, 10.0, q) == pytest.approx([153.0])
+    assert recovery.reach(mean0, cov0, 3, 1.0, 10.0, q) == pytest.approx([117.0 + 4.0 * np.sqrt(17.0)])
 
 
 def test_draws_stay_within_the_reach():

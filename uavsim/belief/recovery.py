@@ -47,9 +47,13 @@ def reach(mean0: np.ndarray, cov0: np.ndarray, steps: int, dt: float, speed_max:
     ``N(mu_0, Sigma_0)`` (``cov0 (M, 6, 6)``, its largest horizontal standard deviations),
     the first step at the drawn velocity, every later one at most ``speed_max`` (the guidance
     keeps the planned velocities in its inscribed speed polygon, Eq. (8)) and, with the
-    process noise ``q (6, 6)`` of a stochastic truth, each step's noise within as many of
-    its standard deviations (its velocity noise carried for the remaining steps).  A
-    target outside its disc is one the model says cannot be there."""
+    process noise ``q (6, 6)`` of a stochastic truth, the sum of its steps' noise within as
+    many of that sum's standard deviations: each step's position noise, and its velocity
+    noise carried for the steps that remain (friction left out, which only shrinks it),
+    ``sd^2 = steps s_p^2 + s_v^2 dt^2 sum_{k=1}^{steps} (steps - k)^2`` (358 m after 20
+    steps of the imported towns' Q; a bound of :data:`REACH_SIGMAS` on every step's noise,
+    summed, gave 1754 m, a disc wider than the towns).  A target outside its disc is one
+    the model says cannot be there."""
     def sd(c, axes):
         return np.sqrt(np.linalg.eigvalsh(c[..., axes, :][..., :, axes])[..., -1])
 
@@ -57,7 +61,8 @@ def reach(mean0: np.ndarray, cov0: np.ndarray, steps: int, dt: float, speed_max:
     r = REACH_SIGMAS * sd(cov0, pos) + (np.hypot(*mean0[:, vel].T) + REACH_SIGMAS * sd(cov0, vel)) * dt
     r = r + max(steps - 1, 0) * speed_max * dt
     if q is not None:
-        r = r + REACH_SIGMAS * (steps * sd(q, pos) + steps * (steps - 1) / 2 * sd(q, vel) * dt)
+        carried = (steps - 1) * steps * (2 * steps - 1) / 6  # sum over k = 1..steps of (steps - k)^2
+        r = r + REACH_SIGMAS * np.sqrt(steps * sd(q, pos) ** 2 + carried * (sd(q, vel) * dt) ** 2)
     return r
 
 
