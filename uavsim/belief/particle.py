@@ -738,11 +738,9 @@ class ParticleBelief:
         committed plans a fresh particle joins the cluster whose plan's state now
         (:attr:`nominal`) is nearest its own in ``[x, y, vx, vy]`` (:func:`join_clusters`, the
         scale of the commit), among every cluster that held particles at the commit, with no
-        offset: it flies that cluster's plan.  A lost cloud's own clusters are those of the
-        route it wrongly followed; a route no particle follows any more is the one to join
-        where the bearings put the target (on the hand-made street grid, before this rule, a
-        target re-seeded on the street it had turned north into had its fresh particles join
-        the kept cluster 50 m away heading east, whose plan drove them back to the wrong street)."""
+        offset: it flies that cluster's plan.  The kept particles' clusters are those of the
+        route the lost cloud wrongly followed, so a fresh particle may join one none of them
+        is of (docs/results/towns.md, "A re-seed that flies the target's route")."""
         if not rows.size:  # no lost target has a ray to draw from this step
             return
         n = self.pf.particles.shape[1]

@@ -50,10 +50,8 @@ def reach(mean0: np.ndarray, cov0: np.ndarray, steps: int, dt: float, speed_max:
     process noise ``q (6, 6)`` of a stochastic truth, the sum of its steps' noise within as
     many of that sum's standard deviations: each step's position noise, and its velocity
     noise carried for the steps that remain (friction left out, which only shrinks it),
-    ``sd^2 = steps s_p^2 + s_v^2 dt^2 sum_{k=1}^{steps} (steps - k)^2`` (358 m after 20
-    steps of the imported towns' Q; a bound of :data:`REACH_SIGMAS` on every step's noise,
-    summed, gave 1754 m, a disc wider than the towns).  A target outside its disc is one
-    the model says cannot be there."""
+    ``sd^2 = steps s_p^2 + s_v^2 dt^2 sum_{k=1}^{steps} (steps - k)^2``.  A target
+    outside its disc is one the model says cannot be there."""
     def sd(c, axes):
         return np.sqrt(np.linalg.eigvalsh(c[..., axes, :][..., :, axes])[..., -1])
 
