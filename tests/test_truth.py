@@ -1,12 +1,15 @@
 """The true targets never enter a building: starts with room to brake or turn, noise kept
 clear of the walls, every step checked from the start."""
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 from uavsim.campaign import run_trial, trial_seeds
 from uavsim.config import load_mission
 from uavsim.sim import Simulation
+from uavsim.truth import true_plan
 
 WORLD = """name = "wall"
 [area]
@@ -142,3 +145,35 @@ def test_the_campaign_bound_takes_the_prior_the_starts_come_from(tmp_path):
     assert s["pcrlb_start_acceptance"][0] == pytest.approx(0.5, abs=4 * 0.0079)
     assert s["pcrlb_pos"] == pytest.approx(restricted.tolist(), rel=1e-12)
     assert np.all(restricted < 0.9 * whole)
+
+
+def _plan(objective, status="feasible", ok=True, guarded_from=2, moved_start=False):
+    return SimpleNamespace(objective=objective, status=status, ok=ok, guarded_from=guarded_from,
+                           moved_start=moved_start)
+
+
+@pytest.mark.parametrize("warm, cold, flies, solves", [
+    (_plan(10.0, "optimal"), _plan(5.0, "optimal"), "warm", 1),  # certified: no second search
+    (_plan(10.0), _plan(5.0, "optimal"), "cold", 2),  # the budget stopped it on a worse route
+    (_plan(5.0), _plan(10.0), "warm", 2),  # the cold search did worse within its limit
+    (_plan(10.0), _plan(5.0, "infeasible", ok=False), "warm", 2),
+    (_plan(10.0, "infeasible", ok=False), _plan(50.0), "cold", 2),
+    (_plan(10.0), _plan(5.0, guarded_from=3), "warm", 2),  # leaves an avoidance constraint at step 2
+    (_plan(10.0), _plan(5.0, moved_start=True), "warm", 2),  # planned from another start
+])
+def test_a_true_target_flies_the_better_of_its_warm_and_cold_searches(warm, cold, flies, solves):
+    """``true_plan``: the search warm from the prior's plan, and where that is not certified
+    the cold search within the first plan's time limit; the usable plan with the lower
+    objective flies (stub guidance: which plan each search returns is given)."""
+    calls = []
+
+    class Guidance:
+        def plan(self, x, cov, goal, warm=None, step=0, shift=1):
+            calls.append(warm)
+            return plans[warm is None]
+
+    plans = {False: warm, True: cold}
+    prior = object()
+    got = true_plan(Guidance(), np.zeros(6), np.zeros((6, 6)), np.zeros(3), prior)
+    assert got is {"warm": warm, "cold": cold}[flies]
+    assert calls == [prior, None][:solves]

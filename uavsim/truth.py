@@ -10,8 +10,9 @@ has none); it then moves by the mission's truth mode:
 * ``planned`` (the paper, Sec. VI-B): along the noise-free guidance plan computed from
   that drawn start at t = 1 (re-planned noise-free from its end if the mission outlasts
   the horizon).  The plan is warm-started from the plan at the prior (the same in every
-  trial, so made once per process, and the start of the filter's first re-plans too), and
-  so spends ``replan_budget_s``;
+  trial, so made once per process, and the start of the filter's first re-plans too)
+  within ``replan_budget_s``, and solved again cold within ``time_limit_s`` where that
+  search is not certified (:func:`true_plan`);
 * ``stochastic``: re-planned from the true state every step (with the link term, from the
   force it applied last), moving by Eq. (1) with
   process noise drawn again (at most :data:`NOISE_DRAWS` times) where a draw would carry
@@ -115,6 +116,24 @@ def prior_plan(guidance: Guidance, target: Target, goal: np.ndarray) -> Plan | N
     return plan if plan.ok else None
 
 
+def true_plan(guidance: Guidance, x: np.ndarray, cov: np.ndarray, goal: np.ndarray, warm: Plan | None,
+              step: int = 0) -> Plan:
+    """P1 from ``x (6,)`` as a true target plans it: warm-started from ``warm`` (the plan at
+    its prior, :func:`prior_plan`) within the re-plan budget, and, where that search is not
+    certified optimal, solved again from scratch within the first plan's ``time_limit_s``
+    (it is the target's first plan); the usable one (collision-free, every avoidance
+    constraint from step 2 on) with the lower Eq. (7) objective flies: a search its budget
+    stops keeps its warm start's route, which may be far from P1's (docs/results/towns.md,
+    "The truth's own plan").  ``cov``: the plan's Sigma (zero for a truth); ``warm`` None (a
+    later horizon's plan): the cold solve alone."""
+    plan = guidance.plan(x, cov, goal, warm=warm, step=step, shift=0)
+    if warm is None or plan.status == "optimal":
+        return plan
+    cold = guidance.plan(x, cov, goal, step=step)
+    usable = [p for p in (plan, cold) if p.ok and p.guarded_from == 2 and not p.moved_start]
+    return min(usable, key=lambda p: p.objective) if usable else plan
+
+
 class Truth:
     """True states ``state (M, 6)`` of one trial; ``controls`` then ``move`` each step.
 
@@ -175,7 +194,7 @@ class Truth:
         warm = prior_plan(self.guidance, self.m.targets[j], goal) if step == 0 else None
         failed: list[Plan] = []
         for x in tries:
-            plan = self.guidance.plan(x, zero, goal, warm=warm, step=step, shift=0)
+            plan = true_plan(self.guidance, x, zero, goal, warm, step)
             if plan.ok and (plan.guarded_from == 2 or step > 0):
                 if failed:
                     why = f"{failed[0].status}: {failed[0].message}" if not failed[0].ok else failed[0].message
