@@ -446,11 +446,11 @@ def test_route_probes_add_a_cluster_for_a_route_none_takes():
 
 
 def test_route_probes_are_planned_as_the_truth_would_be(monkeypatch):
-    """A budget-limited search keeps its warm start's route, and the truth flies the plan
-    its search finds from its start, warm from the plan at its prior mean, or where that is
-    not certified the cold search's if better (``truth.true_plan``).  A probe stands for such
-    a truth, so it is planned the same way: every probe's solve is warm-started from the plan
-    at the target's prior mean (on the
+    """A budget-limited search keeps its warm start's route, and the truth's first search
+    from its start is warm from the plan at its prior mean (``truth.true_plan``, which adds a
+    cold search only where that one is not certified).  A probe stands for such a truth, so
+    it is planned as that search: every probe's solve is warm-started from the plan at the
+    target's prior mean (on the
     shipped Helsinki world, warm from the nearest cluster's plan instead, 8 of 40 starts in
     one target's prior tail planned another route than the truth's from the same start), and a
     probe whose plan is only feasible adds its route as a certified one does: with every

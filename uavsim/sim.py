@@ -63,7 +63,7 @@ from .guidance import Guidance, Plan
 from .mission import Mission
 from .sensing import Scan
 from .targets import HORIZONTAL
-from .truth import Truth, clear_starts, prior_plan, true_plan
+from .truth import Truth, clear_starts, prior_plan
 from .uav import make_policy
 from .uav.grid import every_move_ties
 from .world.routes import GoalField
@@ -415,12 +415,13 @@ class Simulation:
         ``mu (K, 6)``, covariances ``cv``, plans ``pl`` and gains ``gn (K, T, 3, 4)`` and the
         clustering's ``scale (4,)``."""
         added: list[tuple] = []
-        # planned as the truth from x is (truth.true_plan): warm from truth.prior_plan, then cold where
-        # uncertified; a search its budget stops keeps its warm start's route, so another warm start finds others
+        # planned as the truth's first search from x is (truth.true_plan): warm from truth.prior_plan, kept
+        # uncertified; a search its budget stops keeps its warm start's route, so another warm start finds others.
+        # Not the truth's cold search too: on osm-north that made the first commit about 5 times as long
         warm = self._prior_plan(j)
         for x in starts:
             near = int(np.argmin(((mu - x)[:, HORIZONTAL] ** 2 / scale**2).sum(1)))
-            own = true_plan(self.guidance, x, cv[near], self.m.goals[j], warm, self.t)
+            own = self.guidance.plan(x, cv[near], self.m.goals[j], warm=warm, step=self.t, shift=0)
             if not (own.ok and own.guarded_from == 2) or own.moved_start or len(own.controls) != len(pl[0].controls):
                 continue
             flown = model_positions(x, mu, np.array([p.controls for p in pl]), gn, self.m.dynamics)
