@@ -417,7 +417,8 @@ class Simulation:
         added: list[tuple] = []
         # planned as the truth's first search from x is (truth.true_plan): warm from truth.prior_plan, kept
         # uncertified; a search its budget stops keeps its warm start's route, so another warm start finds others.
-        # Not the truth's cold search too: on osm-north that made the first commit about 5 times as long
+        # Not the truth's cold search too: on osm-north 109 of 244 probes were uncertified, and their cold searches made
+        # the first commit 3.3 times as long (docs/results/towns.md, "The truth's own plan")
         warm = self._prior_plan(j)
         for x in starts:
             near = int(np.argmin(((mu - x)[:, HORIZONTAL] ** 2 / scale**2).sum(1)))
