@@ -386,7 +386,8 @@ TOWN_CAMPAIGNS = {  # the towns page's tracking tables (tracking.py), block name
     "towns-altitude-large": "tracking-altitude-large.json", "towns-reach": "tracking-reach.json",
     "towns-reach-large": "tracking-reach-large.json", "towns-join": "tracking-join.json",
     "towns-join-large": "tracking-join-large.json", "towns-join-grid": "tracking-join-grid.json",
-    "towns-horizon": "tracking-horizon.json", "towns-horizon-large": "tracking-horizon-large.json"}
+    "towns-horizon": "tracking-horizon.json", "towns-horizon-large": "tracking-horizon-large.json",
+    "towns-truth": "tracking-truth.json"}
 
 
 def tables_towns(imported: dict | None, budgets: dict | None, resources: dict | None, runs: dict | None,
