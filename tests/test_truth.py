@@ -174,6 +174,6 @@ def test_a_true_target_flies_the_better_of_its_warm_and_cold_searches(warm, cold
 
     plans = {False: warm, True: cold}
     prior = object()
-    got = true_plan(Guidance(), np.zeros(6), np.zeros((6, 6)), np.zeros(3), prior)
+    got = true_plan(Guidance(), np.zeros(6), np.zeros(3), prior)
     assert got is {"warm": warm, "cold": cold}[flies]
     assert calls == [prior, None][:solves]

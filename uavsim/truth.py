@@ -116,20 +116,19 @@ def prior_plan(guidance: Guidance, target: Target, goal: np.ndarray) -> Plan | N
     return plan if plan.ok else None
 
 
-def true_plan(guidance: Guidance, x: np.ndarray, cov: np.ndarray, goal: np.ndarray, warm: Plan | None,
-              step: int = 0) -> Plan:
+def true_plan(guidance: Guidance, x: np.ndarray, goal: np.ndarray, warm: Plan | None, step: int = 0) -> Plan:
     """P1 from ``x (6,)`` as a true target plans it: warm-started from ``warm`` (the plan at
     its prior, :func:`prior_plan`) within the re-plan budget, and, where that search is not
     certified optimal, solved again from scratch within the first plan's ``time_limit_s``
     (it is the target's first plan); the usable one (collision-free, every avoidance
     constraint from step 2 on) with the lower Eq. (7) objective flies: a search its budget
     stops keeps its warm start's route, which may be far from P1's (docs/results/towns.md,
-    "The truth's own plan").  ``cov``: the plan's Sigma (zero for a truth); ``warm`` None (a
-    later horizon's plan): the cold solve alone."""
-    plan = guidance.plan(x, cov, goal, warm=warm, step=step, shift=0)
+    "The truth's own plan").  ``warm`` None (a later horizon's plan): the cold solve alone."""
+    zero = np.zeros((6, 6))  # a truth knows its state
+    plan = guidance.plan(x, zero, goal, warm=warm, step=step, shift=0)
     if warm is None or plan.status == "optimal":
         return plan
-    cold = guidance.plan(x, cov, goal, step=step)
+    cold = guidance.plan(x, zero, goal, step=step)
     usable = [p for p in (plan, cold) if p.ok and p.guarded_from == 2 and not p.moved_start]
     return min(usable, key=lambda p: p.objective) if usable else plan
 
@@ -188,13 +187,13 @@ class Truth:
         prior draws that has one keeping every avoidance constraint (at most
         ``PLAN_TRIES``: a draw near the area's edge, heading out faster than the force limit
         can turn, or towards a wall it cannot stop short of, has none), noted as an event."""
-        zero, goal = np.zeros((6, 6)), self.m.goals[j]
+        goal = self.m.goals[j]
         tries = self._candidates[j][:PLAN_TRIES] if step == 0 else self.state[j:j + 1]
         # the filter's first re-plans and its route probes start from the same plan
         warm = prior_plan(self.guidance, self.m.targets[j], goal) if step == 0 else None
         failed: list[Plan] = []
         for x in tries:
-            plan = true_plan(self.guidance, x, zero, goal, warm, step)
+            plan = true_plan(self.guidance, x, goal, warm, step)
             if plan.ok and (plan.guarded_from == 2 or step > 0):
                 if failed:
                     why = f"{failed[0].status}: {failed[0].message}" if not failed[0].ok else failed[0].message
