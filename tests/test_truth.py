@@ -147,9 +147,8 @@ def test_the_campaign_bound_takes_the_prior_the_starts_come_from(tmp_path):
     assert np.all(restricted < 0.9 * whole)
 
 
-def _plan(objective, status="feasible", ok=True, guarded_from=2, moved_start=False):
-    return SimpleNamespace(objective=objective, status=status, ok=ok, guarded_from=guarded_from,
-                           moved_start=moved_start)
+def _plan(objective, status="feasible", ok=True, guarded_from=2):
+    return SimpleNamespace(objective=objective, status=status, ok=ok, guarded_from=guarded_from)
 
 
 @pytest.mark.parametrize("warm, cold, flies, solves", [
@@ -159,7 +158,6 @@ def _plan(objective, status="feasible", ok=True, guarded_from=2, moved_start=Fal
     (_plan(10.0), _plan(5.0, "infeasible", ok=False), "warm", 2),
     (_plan(10.0, "infeasible", ok=False), _plan(50.0), "cold", 2),
     (_plan(10.0), _plan(5.0, guarded_from=3), "warm", 2),  # leaves an avoidance constraint at step 2
-    (_plan(10.0), _plan(5.0, moved_start=True), "warm", 2),  # planned from another start
 ])
 def test_a_true_target_flies_the_better_of_its_warm_and_cold_searches(warm, cold, flies, solves):
     """``true_plan``: the search warm from the prior's plan, and where that is not certified

@@ -129,7 +129,7 @@ def true_plan(guidance: Guidance, x: np.ndarray, goal: np.ndarray, warm: Plan | 
     if warm is None or plan.status == "optimal":
         return plan
     cold = guidance.plan(x, zero, goal, step=step)
-    usable = [p for p in (plan, cold) if p.ok and p.guarded_from == 2 and not p.moved_start]
+    usable = [p for p in (plan, cold) if p.ok and p.guarded_from == 2]
     return min(usable, key=lambda p: p.objective) if usable else plan
 
 
